@@ -1,0 +1,371 @@
+"""The planar domain triangulation: edges, adjacency, vertex fans, boundary loops.
+
+Everything is derived once, vectorised, from ``uv: (nv, 2)`` and
+``faces: (nf, 3)``. Faces must be counter-clockwise with positive uv area.
+
+Conventions
+-----------
+* Edge ``e`` joins ``edges[e] = (a, b)`` with ``a < b``.
+* ``face_edges[f, k]`` is the edge opposite local vertex ``k`` of face ``f``,
+  i.e. the edge joining local vertices ``(k + 1) % 3`` and ``(k + 2) % 3``.
+* ``edge_faces[e] = (f0, f1)``: ``f0`` is the face in which the edge is
+  traversed ``a -> b`` (the face on the left of ``a -> b``), ``f1`` the face
+  traversing ``b -> a``; ``-1`` where absent (boundary edge).
+* ``edge_opposite[e] = (k0, k1)``: local index, in ``f0`` / ``f1``, of the vertex
+  opposite the edge.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from .errors import TriangulationError, first_few
+
+#: Faces whose uv area is below this fraction of the mean face area are rejected.
+MIN_RELATIVE_AREA = 1e-14
+
+
+def signed_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Signed uv areas ``(nf,)``, positive for counter-clockwise faces."""
+    a, b, c = uv[faces[:, 0]], uv[faces[:, 1]], uv[faces[:, 2]]
+    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+
+
+@dataclass(frozen=True, eq=False)
+class Triangulation:
+    """A validated planar triangulation (immutable; derived tables are cached).
+
+    Parameters
+    ----------
+    uv : (nv, 2) float64
+    faces : (nf, 3) int64, counter-clockwise in uv
+    """
+
+    uv: np.ndarray
+    faces: np.ndarray
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        uv = np.ascontiguousarray(self.uv, dtype=np.float64)
+        faces = np.asarray(self.faces)
+        if uv.ndim != 2 or uv.shape[1] != 2:
+            raise TriangulationError(f"uv must have shape (nv, 2), got {uv.shape}")
+        if faces.ndim != 2 or faces.shape[1] != 3:
+            raise TriangulationError(f"faces must have shape (nf, 3), got {faces.shape}")
+        if faces.shape[0] == 0:
+            raise TriangulationError("the triangulation has no faces")
+        if not np.issubdtype(faces.dtype, np.integer):
+            raise TriangulationError(f"faces must be integers, got dtype {faces.dtype}")
+        faces = np.ascontiguousarray(faces, dtype=np.int64)
+        object.__setattr__(self, "uv", uv)
+        object.__setattr__(self, "faces", faces)
+        uv.setflags(write=False)
+        faces.setflags(write=False)
+        self._validate()
+
+    # ------------------------------------------------------------------ checks
+    def _validate(self) -> None:
+        uv, faces = self.uv, self.faces
+        nv = uv.shape[0]
+        if not np.all(np.isfinite(uv)):
+            bad = np.flatnonzero(~np.all(np.isfinite(uv), axis=1))
+            raise TriangulationError(f"non-finite uv coordinates at vertices {first_few(bad)}")
+        bad = np.flatnonzero((faces < 0).any(1) | (faces >= nv).any(1))
+        if bad.size:
+            raise TriangulationError(f"faces with vertex ids outside [0, {nv}): {first_few(bad)}")
+        bad = np.flatnonzero(
+            (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
+        )
+        if bad.size:
+            raise TriangulationError(f"faces with a repeated vertex id: {first_few(bad)}")
+        used = np.zeros(nv, bool)
+        used[faces.ravel()] = True
+        if not used.all():
+            raise TriangulationError(
+                f"vertices not used by any face: {first_few(np.flatnonzero(~used))}; "
+                "drop unreferenced vertices first"
+            )
+        area = signed_areas(uv, faces)
+        scale = np.abs(area).mean()
+        bad = np.flatnonzero(area <= MIN_RELATIVE_AREA * max(scale, np.finfo(float).tiny))
+        if bad.size:
+            neg = np.flatnonzero(area < 0)
+            raise TriangulationError(
+                f"faces that are not counter-clockwise with positive uv area: {first_few(bad)} "
+                f"({neg.size} flipped, {bad.size - neg.size} degenerate); the domain folds"
+            )
+        # Directed half-edges must be unique (edge-manifold and consistently oriented).
+        he = self._halfedges
+        key = he[:, 0] * nv + he[:, 1]
+        order = np.argsort(key, kind="stable")
+        dup = key[order][1:] == key[order][:-1]
+        if dup.any():
+            faces_bad = np.unique(order[1:][dup] // 3)
+            raise TriangulationError(
+                "non-manifold or inconsistently oriented edges (a directed edge used twice) "
+                f"in faces {first_few(faces_bad)}"
+            )
+        fan_count = self._fan_counts
+        bad = np.flatnonzero(fan_count > 1)
+        if bad.size:
+            raise TriangulationError(f"non-manifold (bowtie) vertices: {first_few(bad)}")
+
+    # --------------------------------------------------------------- basic sizes
+    @property
+    def n_vertices(self) -> int:
+        return int(self.uv.shape[0])
+
+    @property
+    def n_faces(self) -> int:
+        return int(self.faces.shape[0])
+
+    @property
+    def n_edges(self) -> int:
+        return int(self.edges.shape[0])
+
+    # ------------------------------------------------------------------- edges
+    @cached_property
+    def _halfedges(self) -> np.ndarray:
+        """(3 nf, 2) directed half-edges; half-edge ``3 f + k`` is opposite local vertex k."""
+        f = self.faces
+        return np.stack([f[:, [1, 2, 0]], f[:, [2, 0, 1]]], axis=-1).reshape(-1, 2)
+
+    @cached_property
+    def _edge_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        he = self._halfedges
+        nv = self.n_vertices
+        lo = he.min(1)
+        hi = he.max(1)
+        key = lo * nv + hi
+        uniq, inv = np.unique(key, return_inverse=True)
+        edges = np.column_stack([uniq // nv, uniq % nv]).astype(np.int64)
+        face_edges = inv.reshape(-1, 3).astype(np.int64)
+        ne = edges.shape[0]
+        edge_faces = np.full((ne, 2), -1, np.int64)
+        edge_opp = np.full((ne, 2), -1, np.int64)
+        side = (he[:, 0] > he[:, 1]).astype(np.int64)  # 0: traversed a->b (a < b)
+        hidx = np.arange(he.shape[0])
+        edge_faces[inv, side] = hidx // 3
+        edge_opp[inv, side] = hidx % 3
+        return edges, face_edges, edge_faces, edge_opp
+
+    @property
+    def edges(self) -> np.ndarray:
+        """(E, 2) int64, ``a < b``."""
+        return self._edge_tables[0]
+
+    @property
+    def face_edges(self) -> np.ndarray:
+        """(F, 3) edge opposite each local vertex."""
+        return self._edge_tables[1]
+
+    @property
+    def edge_faces(self) -> np.ndarray:
+        """(E, 2) faces on the left of ``a->b`` and of ``b->a``; -1 where absent."""
+        return self._edge_tables[2]
+
+    @property
+    def edge_opposite(self) -> np.ndarray:
+        """(E, 2) local index of the vertex opposite the edge in each face; -1 where absent."""
+        return self._edge_tables[3]
+
+    @cached_property
+    def boundary_edge_mask(self) -> np.ndarray:
+        """(E,) bool."""
+        return (self.edge_faces < 0).any(1)
+
+    @cached_property
+    def interior_edges(self) -> np.ndarray:
+        return np.flatnonzero(~self.boundary_edge_mask)
+
+    @cached_property
+    def boundary_edges(self) -> np.ndarray:
+        return np.flatnonzero(self.boundary_edge_mask)
+
+    @cached_property
+    def boundary_vertex_mask(self) -> np.ndarray:
+        """(nv,) bool: vertex lies on a boundary edge."""
+        m = np.zeros(self.n_vertices, bool)
+        m[self.edges[self.boundary_edges].ravel()] = True
+        return m
+
+    @cached_property
+    def face_adjacency(self) -> np.ndarray:
+        """(F, 3) face across the edge opposite each local vertex; -1 on the boundary."""
+        fe = self.face_edges
+        ef = self.edge_faces[fe]  # (F, 3, 2)
+        me = np.arange(self.n_faces)[:, None]
+        return np.where(ef[..., 0] == me, ef[..., 1], ef[..., 0])
+
+    # -------------------------------------------------------------------- fans
+    @cached_property
+    def _corner_next(self) -> np.ndarray:
+        """(3F,) next corner counter-clockwise around the corner's vertex; -1 at a boundary.
+
+        Corner ``3 f + k`` sits at vertex ``faces[f, k]``. Rotating CCW around it the
+        next face shares the edge from the vertex to local vertex ``k + 2``.
+        """
+        F = self.faces
+        nf = self.n_faces
+        fe = self.face_edges
+        ef = self.edge_faces
+        k = np.tile(np.arange(3), nf)
+        f = np.repeat(np.arange(nf), 3)
+        e = fe[f, (k + 1) % 3]  # edge opposite local k+1 joins k and k+2
+        g = np.where(ef[e, 0] == f, ef[e, 1], ef[e, 0])
+        v = F[f, k]
+        nxt = np.full(3 * nf, -1, np.int64)
+        ok = g >= 0
+        # local index of v inside g
+        kg = np.argmax(F[g[ok]] == v[ok, None], axis=1)
+        nxt[ok] = 3 * g[ok] + kg
+        return nxt
+
+    @cached_property
+    def _fans(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """CSR ordered fans: ``(ptr (nv+1,), corners (3F,), fan_count (nv,))``."""
+        nxt = self._corner_next
+        n3 = nxt.size
+        v_of = self.faces.ravel()
+        nv = self.n_vertices
+        has_prev = np.zeros(n3, bool)
+        has_prev[nxt[nxt >= 0]] = True
+        starts = np.flatnonzero(~has_prev)  # boundary fan starts
+        # vertices with no start are interior: start at their first corner
+        has_start = np.zeros(nv, bool)
+        has_start[v_of[starts]] = True
+        first = np.full(nv, -1, np.int64)
+        order = np.argsort(v_of, kind="stable")
+        vs = v_of[order]
+        firsts = order[np.r_[True, vs[1:] != vs[:-1]]]
+        first[v_of[firsts]] = firsts
+        interior_starts = first[~has_start & (first >= 0)]
+        all_starts = np.concatenate([starts, interior_starts])
+        n_start_per_v = np.bincount(v_of[all_starts], minlength=nv)
+        # walk every fan in lockstep
+        walked = [all_starts]
+        cur = all_starts.copy()
+        origin = all_starts.copy()
+        alive = np.arange(all_starts.size)
+        for _ in range(n3):
+            c = nxt[cur[alive]]
+            ok = (c >= 0) & (c != origin[alive])
+            alive = alive[ok]
+            if alive.size == 0:
+                break
+            cur[alive] = c[ok]
+            walked.append((alive, c[ok]))
+        # assemble: fan id, step, corner
+        fan_ids = [np.arange(all_starts.size)]
+        steps = [np.zeros(all_starts.size, np.int64)]
+        corners = [all_starts]
+        for s, (ids, cs) in enumerate(walked[1:], start=1):
+            fan_ids.append(ids)
+            steps.append(np.full(ids.size, s, np.int64))
+            corners.append(cs)
+        fan_ids = np.concatenate(fan_ids)
+        steps = np.concatenate(steps)
+        corners = np.concatenate(corners)
+        fv = v_of[all_starts][fan_ids]
+        o = np.lexsort((steps, fan_ids, fv))
+        corners = corners[o]
+        fan_count = n_start_per_v.copy()
+        # a vertex whose walk does not reach all of its corners has several fans
+        reached = np.bincount(v_of[corners], minlength=nv)
+        total = np.bincount(v_of, minlength=nv)
+        fan_count[reached != total] = np.maximum(fan_count[reached != total], 2)
+        ptr = np.zeros(nv + 1, np.int64)
+        np.cumsum(np.bincount(v_of[corners], minlength=nv), out=ptr[1:])
+        return ptr, corners, fan_count
+
+    @property
+    def _fan_counts(self) -> np.ndarray:
+        return self._fans[2]
+
+    def vertex_fan(self, v: int) -> np.ndarray:
+        """Faces around vertex ``v`` in counter-clockwise order ``(valence,)``.
+
+        For a boundary vertex (incomplete star) the fan starts at the face on the
+        boundary edge leaving ``v`` counter-clockwise-first.
+        """
+        ptr, corners, _ = self._fans
+        return corners[ptr[v] : ptr[v + 1]] // 3
+
+    @cached_property
+    def fan_ptr(self) -> np.ndarray:
+        """(nv + 1,) CSR pointer into :attr:`fan_corners`."""
+        return self._fans[0]
+
+    @cached_property
+    def fan_corners(self) -> np.ndarray:
+        """(3F,) corners ``3 f + k`` ordered CCW around each vertex (CSR by vertex)."""
+        return self._fans[1]
+
+    # ---------------------------------------------------------------- boundary
+    @cached_property
+    def boundary_loops(self) -> list[np.ndarray]:
+        """Boundary loops as vertex arrays, longest (by uv length) first.
+
+        Each loop is ordered with the domain on its left (outer loop CCW, holes CW).
+        """
+        be = self.boundary_edges
+        if be.size == 0:
+            return []
+        ef = self.edge_faces[be]
+        a, b = self.edges[be, 0], self.edges[be, 1]
+        # orient so the existing face is on the left: if f0 exists, a->b
+        src = np.where(ef[:, 0] >= 0, a, b)
+        dst = np.where(ef[:, 0] >= 0, b, a)
+        succ = np.full(self.n_vertices, -1, np.int64)
+        succ[src] = dst
+        visited = np.zeros(self.n_vertices, bool)
+        loops = []
+        for s in src:
+            if visited[s]:
+                continue
+            loop = []
+            v = s
+            while not visited[v]:
+                visited[v] = True
+                loop.append(v)
+                v = succ[v]
+            loops.append(np.array(loop, np.int64))
+        lengths = [np.linalg.norm(self.uv[l] - self.uv[np.roll(l, -1)], axis=1).sum() for l in loops]
+        return [loops[i] for i in np.argsort(lengths)[::-1]]
+
+    @property
+    def n_holes(self) -> int:
+        return max(len(self.boundary_loops) - 1, 0)
+
+    # -------------------------------------------------------------- geometry
+    @cached_property
+    def areas(self) -> np.ndarray:
+        """(F,) positive uv areas."""
+        return signed_areas(self.uv, self.faces)
+
+    @cached_property
+    def bary_gradients(self) -> np.ndarray:
+        """(F, 3, 2): gradient in uv of each barycentric coordinate of each face."""
+        uv = self.uv[self.faces]  # (F, 3, 2)
+        e0 = uv[:, 2] - uv[:, 1]
+        e1 = uv[:, 0] - uv[:, 2]
+        e2 = uv[:, 1] - uv[:, 0]
+        rot = lambda e: np.stack([-e[:, 1], e[:, 0]], axis=1)  # noqa: E731
+        twice = (2.0 * self.areas)[:, None]
+        # grad l_k = rot90(edge opposite k, traversed CCW) / 2A
+        return np.stack([rot(e0) / twice, rot(e1) / twice, rot(e2) / twice], axis=1)
+
+    def describe(self) -> dict:
+        """Counts for reports."""
+        return dict(
+            vertices=self.n_vertices,
+            faces=self.n_faces,
+            edges=self.n_edges,
+            interior_edges=int(self.interior_edges.size),
+            boundary_edges=int(self.boundary_edges.size),
+            boundary_loops=len(self.boundary_loops),
+            holes=self.n_holes,
+            interior_vertices=int((~self.boundary_vertex_mask).sum()),
+        )
