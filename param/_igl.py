@@ -1,0 +1,39 @@
+"""The only module that imports libigl: thin wrappers with checked dtypes (libigl 2.6 bindings)."""
+from __future__ import annotations
+
+import igl
+import numpy as np
+
+
+def circle_boundary(V: np.ndarray, loop: np.ndarray) -> np.ndarray:
+    """Positions ``(n, 2)`` of ``loop`` on the unit circle, spaced by 3D arc length."""
+    return np.asarray(
+        igl.map_vertices_to_circle(np.asfortranarray(V, dtype=np.float64),
+                                   np.ascontiguousarray(loop, dtype=np.int32)),
+        dtype=np.float64,
+    )
+
+
+def harmonic(V: np.ndarray, F: np.ndarray, b: np.ndarray, bc: np.ndarray) -> np.ndarray:
+    """Cotangent-harmonic extension ``(nv, 2)`` of boundary values ``bc`` at ``b``."""
+    return np.asarray(
+        igl.harmonic(np.ascontiguousarray(V, dtype=np.float64), np.ascontiguousarray(F, dtype=np.int64),
+                     np.ascontiguousarray(b, dtype=np.int64), np.ascontiguousarray(bc, dtype=np.float64), 1)
+    )
+
+
+def lscm(V: np.ndarray, F: np.ndarray, b: np.ndarray, bc: np.ndarray) -> np.ndarray:
+    """Least-squares conformal map ``(nv, 2)`` with vertices ``b`` pinned at ``bc``."""
+    uv, _ = igl.lscm(np.ascontiguousarray(V, dtype=np.float64), np.ascontiguousarray(F, dtype=np.int64),
+                     np.ascontiguousarray(b, dtype=np.int64), np.ascontiguousarray(bc, dtype=np.float64))
+    return np.asarray(uv)
+
+
+def composite_harmonic(UV0: np.ndarray, F: np.ndarray, b: np.ndarray, bc: np.ndarray) -> np.ndarray:
+    """``igl.bijective_composite_harmonic_mapping`` from a fold-free planar ``UV0 (nv, 2)``."""
+    return np.asarray(
+        igl.bijective_composite_harmonic_mapping(
+            np.ascontiguousarray(UV0, dtype=np.float64), np.ascontiguousarray(F, dtype=np.int64),
+            np.ascontiguousarray(b, dtype=np.int64), np.ascontiguousarray(bc, dtype=np.float64),
+        )
+    )
