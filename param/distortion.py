@@ -20,7 +20,10 @@ def face_jacobians(V: np.ndarray, F: np.ndarray, uv: np.ndarray) -> np.ndarray:
                   np.stack([(e1 * y).sum(1), (e2 * y).sum(1)], -1)], axis=1)  # (nf, 2, 2) columns = edges
     q0 = uv[F[:, 0]]
     Q = np.stack([uv[F[:, 1]] - q0, uv[F[:, 2]] - q0], axis=-1)  # (nf, 2, 2)
-    return Q @ np.linalg.inv(P)
+    det = P[:, 0, 0] * P[:, 1, 1] - P[:, 0, 1] * P[:, 1, 0]
+    Pinv = np.stack([np.stack([P[:, 1, 1], -P[:, 0, 1]], -1),
+                     np.stack([-P[:, 1, 0], P[:, 0, 0]], -1)], axis=1) / det[:, None, None]
+    return Q @ Pinv
 
 
 def face_distortion(V: np.ndarray, F: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -31,10 +34,12 @@ def face_distortion(V: np.ndarray, F: np.ndarray, uv: np.ndarray) -> tuple[np.nd
     the total uv area over its share of the total 3D area.
     """
     J = face_jacobians(V, F, uv)
-    s = np.linalg.svd(J, compute_uv=False)  # (nf, 2), descending
+    a, b, c, d = J[:, 0, 0], J[:, 0, 1], J[:, 1, 0], J[:, 1, 1]
+    q = np.hypot(0.5 * (a + d), 0.5 * (c - b))  # closed-form 2x2 singular values
+    r_ = np.hypot(0.5 * (a - d), 0.5 * (c + b))
     with np.errstate(divide="ignore", invalid="ignore"):
-        angle = s[:, 0] / s[:, 1]
-        det = np.abs(np.linalg.det(J))
+        angle = (q + r_) / np.abs(q - r_)
+        det = np.abs(a * d - b * c)
         a3 = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
         r = det * (a3.sum() / (a3 * det).sum())  # (uv area / total uv) / (3D area / total 3D)
         area = np.maximum(r, 1.0 / r)

@@ -125,8 +125,8 @@ def _fan_counts(F: np.ndarray, he_edge: np.ndarray, edge_count: np.ndarray, nv: 
     c = np.concatenate(cols)
     A = sp.coo_matrix((np.ones(r.size, np.int8), (r, c)), shape=(3 * nf, 3 * nf)).tocsr()
     _, lab = connected_components(A, directed=False)
-    pairs = np.unique(np.column_stack([F.ravel(), lab]), axis=0)
-    return np.bincount(pairs[:, 0], minlength=nv)
+    key = np.unique(F.ravel() * np.int64(3 * nf) + lab)  # distinct (vertex, fan label)
+    return np.bincount(key // (3 * nf), minlength=nv)
 
 
 def _orient(F: np.ndarray, he: np.ndarray, he_edge: np.ndarray) -> tuple[np.ndarray, int]:
@@ -165,13 +165,19 @@ def _orient(F: np.ndarray, he: np.ndarray, he_edge: np.ndarray) -> tuple[np.ndar
     return F, int(flip.sum())
 
 
-def _boundary_loops(V: np.ndarray, F: np.ndarray) -> list[np.ndarray]:
-    """Boundary loops of an oriented manifold mesh, longest (3D length) first."""
+def _boundary_loops(V: np.ndarray, F: np.ndarray, bnd_edges: np.ndarray) -> list[np.ndarray]:
+    """Boundary loops of an oriented manifold mesh, longest (3D length) first.
+
+    ``bnd_edges (nb, 2)``: the undirected boundary edges (used by one face).
+    """
     nv = V.shape[0]
+    if bnd_edges.size == 0:
+        return []
     he = np.stack([F[:, [0, 1, 2]], F[:, [1, 2, 0]]], axis=-1).reshape(-1, 2)
-    key = he[:, 0] * nv + he[:, 1]
-    rkey = he[:, 1] * nv + he[:, 0]
-    bnd = he[~np.isin(key, rkey)]
+    key = np.minimum(he[:, 0], he[:, 1]) * nv + np.maximum(he[:, 0], he[:, 1])
+    bkey = np.sort(bnd_edges[:, 0] * nv + bnd_edges[:, 1])
+    pos = np.minimum(np.searchsorted(bkey, key), bkey.size - 1)
+    bnd = he[bkey[pos] == key]
     if bnd.size == 0:
         return []
     succ = np.full(nv, -1, np.int64)
@@ -291,7 +297,7 @@ def validate_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) -
         messages.append(f"repaired orientation of {nflip} faces (rows reversed, face order kept)")
 
     # -- topology
-    loops = _boundary_loops(V, F)
+    loops = _boundary_loops(V, F, edges[edge_count == 1])
     ne = edges.shape[0]
     chi = nv - ne + nf
     nb = len(loops)
