@@ -1,0 +1,213 @@
+"""Vertex normals and local derivative estimates of mesh data over the uv domain.
+
+Two estimators:
+
+* :func:`area_weighted_normals` -- the mesh's area-weighted face normals, summed
+  per vertex (a first-order estimate of the tangent plane).
+* :func:`local_polynomial_fit` -- for each vertex ``v`` a weighted least-squares
+  polynomial (degree 2 or 3) in ``uv - uv_v`` fitted to the data of the vertex's
+  k-ring that passes exactly through the data at ``v`` (as in Akima's and Renka's
+  derivative estimates for scattered-data interpolation). It gives the gradient
+  ``(d, 2)`` and the Hessian ``(d, 2, 2)`` of each data coordinate with respect to
+  uv, i.e. the data's first and second fundamental quantities at every vertex.
+
+Every function is vectorised over all vertices; neighbourhoods are padded to a
+fixed width (the nearest ``max_neighbours`` in uv are kept).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+#: Neighbourhoods are truncated to this many nearest vertices.
+MAX_NEIGHBOURS = 32
+
+
+def area_weighted_normals(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Unit vertex normals: the sum of the incident faces' (area-weighted) normals.
+
+    Parameters
+    ----------
+    V : (nv, 3) float, F : (nf, 3) int
+
+    Returns
+    -------
+    (nv, 3) float64, unit length (zero rows stay zero).
+    """
+    V = np.asarray(V, float)
+    F = np.asarray(F, np.int64)
+    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])  # twice the area
+    n = np.zeros_like(V)
+    for k in range(3):
+        np.add.at(n, F[:, k], fn)
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+
+
+def vertex_rings(faces: np.ndarray, nv: int, rings: int = 2) -> sp.csr_matrix:
+    """Boolean ``(nv, nv)`` CSR: ``[v, w]`` set when ``w != v`` is within ``rings`` edges of ``v``."""
+    F = np.asarray(faces, np.int64)
+    i = np.concatenate([F[:, 0], F[:, 1], F[:, 2]])
+    j = np.concatenate([F[:, 1], F[:, 2], F[:, 0]])
+    A = sp.csr_matrix((np.ones(2 * i.size, np.int8), (np.r_[i, j], np.r_[j, i])), shape=(nv, nv))
+    A.data[:] = 1
+    R = A.copy()
+    for _ in range(rings - 1):
+        R = R + R @ A
+        R.data[:] = 1
+    R.setdiag(0)
+    R.eliminate_zeros()
+    R.sort_indices()
+    return R.tocsr()
+
+
+def padded_neighbours(
+    uv: np.ndarray, faces: np.ndarray, rings: int = 2, max_neighbours: int = MAX_NEIGHBOURS
+) -> tuple[np.ndarray, np.ndarray]:
+    """Padded k-ring neighbour lists, nearest first in uv.
+
+    Returns
+    -------
+    nbr : (nv, K) int64, ``-1`` padding
+    count : (nv,) int64
+    """
+    uv = np.asarray(uv, float)
+    nv = uv.shape[0]
+    R = vertex_rings(faces, nv, rings)
+    row = np.repeat(np.arange(nv), np.diff(R.indptr))
+    col = R.indices.astype(np.int64)
+    dist = np.linalg.norm(uv[col] - uv[row], axis=1)
+    order = np.lexsort((dist, row))
+    row, col = row[order], col[order]
+    rank = np.arange(row.size) - R.indptr[row]
+    keep = rank < max_neighbours
+    count = np.minimum(np.diff(R.indptr), max_neighbours)
+    K = int(count.max()) if nv else 0
+    nbr = np.full((nv, K), -1, np.int64)
+    nbr[row[keep], rank[keep]] = col[keep]
+    return nbr, count
+
+
+def _monomials(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
+    """Monomials without the constant: u, v, u^2, uv, v^2 (, u^3, u^2 v, u v^2, v^3)."""
+    cols = [x, y, x * x, x * y, y * y]
+    if degree >= 3:
+        cols += [x**3, x * x * y, x * y * y, y**3]
+    return np.stack(cols, axis=-1)
+
+
+@dataclass(frozen=True)
+class LocalFit:
+    """Derivative estimates at every vertex.
+
+    Attributes
+    ----------
+    grad : (nv, d, 2) first partials ``(d/du, d/dv)`` of each data coordinate
+    hess : (nv, d, 2, 2) second partials
+    scale : (nv,) the local length (mean distance to the 1-ring) used to scale the fit
+    degree : (nv,) degree actually used at each vertex (lower where too few neighbours)
+    """
+
+    grad: np.ndarray
+    hess: np.ndarray
+    scale: np.ndarray
+    degree: np.ndarray
+
+
+def local_polynomial_fit(
+    uv: np.ndarray,
+    values: np.ndarray,
+    faces: np.ndarray,
+    *,
+    degree: int = 3,
+    rings: int = 3,
+    weight_power: float = 2.0,
+    ridge: float = 1e-12,
+) -> LocalFit:
+    """Weighted least-squares polynomial through each vertex's data, over its k-ring.
+
+    Parameters
+    ----------
+    uv : (nv, 2) domain points
+    values : (nv, d) data (mesh vertices, or heights)
+    faces : (nf, 3)
+    degree : 2 or 3
+    rings : neighbourhood size in edges
+    weight_power : weights ``(s / r) ** weight_power`` (``r`` uv distance, ``s`` local scale)
+    ridge : Tikhonov damping of the higher-order coefficients, relative to the normal matrix
+
+    Returns
+    -------
+    LocalFit
+
+    Notes
+    -----
+    The polynomial passes through the data at ``v`` (the constant term is the data),
+    so linear data give exact gradients and zero Hessians, and quadratic data exact
+    Hessians (cubic data too with ``degree=3``), wherever the neighbourhood is unisolvent.
+    Vertices with fewer than ``1.5 m`` neighbours (``m`` coefficients) drop to degree 2,
+    then to degree 1.
+    """
+    if degree not in (2, 3):
+        raise ValueError(f"degree must be 2 or 3, got {degree}")
+    uv = np.asarray(uv, float)
+    vals = np.asarray(values, float)
+    if vals.ndim == 1:
+        vals = vals[:, None]
+    nv, d = vals.shape
+    nbr, count = padded_neighbours(uv, faces, rings)
+    valid = nbr >= 0
+    nb = np.where(valid, nbr, 0)
+    # local scale: mean distance to the 1-ring
+    R1 = vertex_rings(faces, nv, 1)
+    r1 = np.repeat(np.arange(nv), np.diff(R1.indptr))
+    l1 = np.linalg.norm(uv[R1.indices] - uv[r1], axis=1)
+    scale = np.bincount(r1, l1, minlength=nv) / np.maximum(np.diff(R1.indptr), 1)
+    scale = np.where(scale > 0, scale, 1.0)
+    X = (uv[nb] - uv[:, None, :]) / scale[:, None, None]  # (nv, K, 2)
+    Y = vals[nb] - vals[:, None, :]  # (nv, K, d)
+    r = np.linalg.norm(X, axis=-1)
+    w = np.where(valid, 1.0 / np.maximum(r, 1e-9) ** weight_power, 0.0)
+    A = _monomials(X[..., 0], X[..., 1], degree)  # (nv, K, m)
+    m = A.shape[-1]
+    # per-vertex degree by neighbour count: mask unusable columns
+    used_deg = np.full(nv, degree)
+    used_deg[count < 13] = min(degree, 2)
+    used_deg[count < 8] = 1
+    colmask = np.ones((nv, m), bool)
+    colmask[used_deg < 3, 5:] = False
+    colmask[used_deg < 2, 2:] = False
+    A = A * colmask[:, None, :]
+    Aw = A * w[..., None]
+    N = np.einsum("vki,vkj->vij", Aw, A)
+    rhs = np.einsum("vki,vkd->vid", Aw, Y)
+    trace = np.einsum("vii->v", N) / m
+    damp = np.zeros((nv, m))
+    damp[:, 2:] = ridge  # do not damp the gradient
+    damp = damp * trace[:, None] + (~colmask) * 1.0
+    N = N + damp[:, :, None] * np.eye(m)[None]
+    coef = np.linalg.solve(N, rhs)  # (nv, m, d)
+    s = scale[:, None]
+    grad = np.stack([coef[:, 0, :], coef[:, 1, :]], axis=-1) / s[..., None]
+    huu = 2 * coef[:, 2, :]
+    huv = coef[:, 3, :]
+    hvv = 2 * coef[:, 4, :]
+    hess = np.stack([np.stack([huu, huv], -1), np.stack([huv, hvv], -1)], -2) / (s**2)[..., None, None]
+    return LocalFit(grad=grad, hess=hess, scale=scale, degree=used_deg)
+
+
+def fitted_normals(fit: LocalFit, reference: np.ndarray | None = None) -> np.ndarray:
+    """Unit normals ``(nv, 3)`` of the fitted tangent planes ``grad_u x grad_v``.
+
+    ``reference`` (``(nv, 3)``, e.g. area-weighted normals) replaces degenerate
+    estimates (parallel or vanishing tangents).
+    """
+    n = np.cross(fit.grad[:, :, 0], fit.grad[:, :, 1])
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    out = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+    if reference is not None:
+        bad = (length[:, 0] <= 1e-12 * np.maximum(np.abs(fit.grad).max(axis=(1, 2)) ** 2, 1e-300))
+        out[bad] = reference[bad]
+    return out

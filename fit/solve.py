@@ -1,0 +1,168 @@
+"""Solver plumbing: a host sparse Cholesky inside optimistix's Gauss--Newton step.
+
+The fitting problem is a least-squares problem ``min_x |r(x)|^2`` over the free
+points ``x: (n, 3)``. Its quadratic, coordinate-separable part has the normal
+matrix ``I_3 (x) H`` with one sparse SPD ``H: (n, n)`` shared by the three
+coordinates. :class:`SparseCholesky` factors ``H`` once on the host (CHOLMOD via
+``cholespy``, float64); :class:`FactorSolver` is a ``lineax`` linear solver that
+optimistix's :class:`optimistix.GaussNewton` calls with the residual's Jacobian
+``J``. It forms ``J^T r`` in JAX and then either
+
+* ``mode="direct"``: applies ``H^{-1}`` through :func:`jax.pure_callback` -- exact
+  when every residual is linear and separable (one Gauss--Newton step solves it);
+* ``mode="pcg"``: runs conjugate gradients on ``J^T J`` preconditioned by ``H^{-1}``
+  -- for nonlinear or coordinate-coupling terms (an angle-based tilt), whose
+  Gauss--Newton matrix differs from ``H`` by a small, low-rank-ish update.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import lineax as lx
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["SparseCholesky", "FactorSolver", "require_x64"]
+
+
+class X64Error(RuntimeError):
+    """JAX is not running in float64."""
+
+
+def require_x64() -> None:
+    """Raise :class:`X64Error` unless ``jax_enable_x64`` is on (fits need float64)."""
+    if not jax.config.jax_enable_x64:
+        raise X64Error(
+            "trispline fits in float64: enable it first with "
+            "jax.config.update('jax_enable_x64', True) (the CLI and tests do this), "
+            "or run inside `with jax.experimental.enable_x64():`"
+        )
+
+
+class SparseCholesky:
+    """Sparse Cholesky factor of an SPD matrix, solved on the host.
+
+    Parameters
+    ----------
+    H : scipy sparse (n, n), symmetric positive definite (both triangles stored)
+
+    Notes
+    -----
+    ``cholespy`` (bundled CHOLMOD) is used when importable; otherwise
+    ``scipy.sparse.linalg.splu`` (slower, still exact).
+    """
+
+    def __init__(self, H: sp.spmatrix) -> None:
+        H = sp.csr_matrix(H, dtype=np.float64)
+        if H.shape[0] != H.shape[1]:
+            raise ValueError(f"H must be square, got {H.shape}")
+        H.sum_duplicates()
+        H.sort_indices()
+        self.n = int(H.shape[0])
+        self.backend = "cholespy"
+        try:
+            import cholespy
+
+            self._solver = cholespy.CholeskySolverD(
+                self.n,
+                H.indptr.astype(np.int32),
+                H.indices.astype(np.int32),
+                np.ascontiguousarray(H.data),
+                cholespy.MatrixType.CSR,
+            )
+        except ImportError:  # pragma: no cover - cholespy is a dependency
+            import scipy.sparse.linalg as spla
+
+            self.backend = "splu"
+            self._solver = spla.splu(H.tocsc())
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """``H^{-1} b`` for ``b: (n,)`` or ``(n, k)``."""
+        b = np.array(b, dtype=np.float64, order="C", copy=True)
+        if self.backend == "splu":  # pragma: no cover
+            return self._solver.solve(b)
+        x = np.zeros_like(b)
+        self._solver.solve(b, x)
+        return x
+
+    def jax_solve(self, b: jax.Array) -> jax.Array:
+        """``H^{-1} b`` inside traced JAX code (host callback)."""
+        return jax.pure_callback(
+            lambda v: self.solve(np.asarray(v)).astype(np.float64),
+            jax.ShapeDtypeStruct(b.shape, jnp.float64),
+            b,
+            vmap_method="sequential",
+        )
+
+
+def _dot(a: jax.Array, b: jax.Array) -> jax.Array:
+    return jnp.vdot(a, b)
+
+
+class FactorSolver(lx.AbstractLinearSolver):
+    """Least-squares solve ``J y ~ r`` through the normal equations with a fixed factor.
+
+    Attributes
+    ----------
+    factor : SparseCholesky of ``H``, the (exact or approximate) ``J^T J`` per coordinate
+    mode : ``"direct"`` (``y = H^{-1} J^T r``) or ``"pcg"``
+    rtol : relative residual tolerance of the preconditioned CG
+    max_steps : CG iteration cap
+    """
+
+    factor: SparseCholesky = eqx.field(static=True)
+    mode: str = eqx.field(static=True, default="direct")
+    rtol: float = eqx.field(static=True, default=1e-10)
+    max_steps: int = eqx.field(static=True, default=200)
+
+    def init(self, operator: lx.AbstractLinearOperator, options: dict[str, Any]):
+        return operator
+
+    def compute(self, state, vector, options):
+        J = state
+        JT = J.transpose()
+        g = JT.mv(vector)
+        shape = g.shape
+        apply_h_inv = lambda v: self.factor.jax_solve(v.reshape(self.factor.n, -1)).reshape(shape)  # noqa: E731
+        if self.mode == "direct":
+            y = apply_h_inv(g)
+            return y, lx.RESULTS.successful, {"cg_steps": jnp.asarray(0)}
+        normal = lambda v: JT.mv(J.mv(v))  # noqa: E731
+        y0 = apply_h_inv(g)
+        r0 = g - normal(y0)
+        z0 = apply_h_inv(r0)
+        gnorm = jnp.sqrt(_dot(g, g))
+        tol = self.rtol * gnorm
+
+        def cond(c):
+            _, r, _, _, _, k = c
+            return (jnp.sqrt(_dot(r, r)) > tol) & (k < self.max_steps)
+
+        def body(c):
+            y, r, z, p, rz, k = c
+            Ap = normal(p)
+            alpha = rz / _dot(p, Ap)
+            y = y + alpha * p
+            r = r - alpha * Ap
+            z = apply_h_inv(r)
+            rz_new = _dot(r, z)
+            p = z + (rz_new / rz) * p
+            return y, r, z, p, rz_new, k + 1
+
+        rz0 = _dot(r0, z0)
+        y, r, _, _, _, k = jax.lax.while_loop(cond, body, (y0, r0, z0, z0, rz0, jnp.asarray(0)))
+        ok = jnp.sqrt(_dot(r, r)) <= tol
+        result = lx.RESULTS.where(ok, lx.RESULTS.successful, lx.RESULTS.max_steps_reached)
+        return y, result, {"cg_steps": k}
+
+    def transpose(self, state, options):
+        return state.transpose(), options
+
+    def conj(self, state, options):
+        return state, options
+
+    def assume_full_rank(self) -> bool:
+        return True
