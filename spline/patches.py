@@ -1,0 +1,258 @@
+"""Evaluation of quintic triangular Bézier patches: values and uv-derivatives.
+
+Two entry styles:
+
+* scattered queries, one barycentric point per query on its own face:
+  :func:`evaluate`, :func:`evaluate_derivatives` with ``face_idx: (n,)`` and
+  ``bary: (n, 3)``;
+* a fixed barycentric sample set shared by all faces (tessellation, quadrature):
+  :func:`evaluate_grid`, one BLAS product ``(n, 21) @ (21, F*d)`` with no per-face loop.
+
+uv-derivatives use the chain rule ``d/du = sum_k dB/dl_k * dl_k/du`` with the
+faces' barycentric gradients ``(F, 3, 2)`` (:func:`face_bary_gradients`).
+
+:func:`numeric_continuity` samples values and uv-gradients from both sides of
+every interior edge: the numeric half of the continuity verification.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._index import NCTRL
+from .bernstein import basis, basis_gradient_bary, basis_hessian_bary
+from .errors import InputError, first_few
+from .topology import Triangulation, signed_areas
+
+__all__ = [
+    "PatchDerivatives",
+    "check_ctrl",
+    "evaluate",
+    "evaluate_derivatives",
+    "evaluate_grid",
+    "face_bary_gradients",
+    "numeric_continuity",
+]
+
+
+def face_bary_gradients(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """uv-gradient of each barycentric coordinate of each face, ``(F, 3, 2)``.
+
+    Same values as :attr:`Triangulation.bary_gradients`, without building the
+    topology.
+    """
+    uv = np.asarray(uv, dtype=np.float64)
+    faces = np.asarray(faces)
+    t = uv[faces]  # (F, 3, 2)
+    e = t[:, [2, 0, 1]] - t[:, [1, 2, 0]]  # edge opposite k, traversed CCW
+    twice = 2.0 * signed_areas(uv, faces)
+    return np.stack([-e[..., 1], e[..., 0]], axis=-1) / twice[:, None, None]
+
+
+def check_ctrl(faces: np.ndarray, ctrl: np.ndarray) -> np.ndarray:
+    """Validate ``ctrl: (F, 21, d)`` against ``faces: (F, 3)``; return it as float64."""
+    ctrl = np.asarray(ctrl, dtype=np.float64)
+    nf = np.asarray(faces).shape[0]
+    if ctrl.ndim != 3 or ctrl.shape[0] != nf or ctrl.shape[1] != NCTRL:
+        raise InputError(f"control points must have shape ({nf}, {NCTRL}, d), got {ctrl.shape}")
+    return ctrl
+
+
+def _check_queries(nf: int, face_idx: np.ndarray, bary: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    face_idx = np.asarray(face_idx)
+    bary = np.asarray(bary, dtype=np.float64)
+    if face_idx.ndim != 1 or not np.issubdtype(face_idx.dtype, np.integer):
+        raise InputError(f"face_idx must be a 1-d integer array, got shape {face_idx.shape}, dtype {face_idx.dtype}")
+    if bary.shape != (face_idx.shape[0], 3):
+        raise InputError(f"bary must have shape ({face_idx.shape[0]}, 3), got {bary.shape}")
+    bad = np.flatnonzero((face_idx < 0) | (face_idx >= nf))
+    if bad.size:
+        raise InputError(f"face_idx outside [0, {nf}) at queries {first_few(bad)}")
+    return face_idx, bary
+
+
+def evaluate(
+    uv: np.ndarray, faces: np.ndarray, ctrl: np.ndarray, face_idx: np.ndarray, bary: np.ndarray
+) -> np.ndarray:
+    """Points on the patches.
+
+    Parameters
+    ----------
+    uv : (V, 2) float (unused for values; kept for a uniform signature)
+    faces : (F, 3) int
+    ctrl : (F, 21, d) float
+    face_idx : (n,) int
+    bary : (n, 3) float, barycentric coordinates in face ``face_idx``
+
+    Returns
+    -------
+    (n, d) float64
+    """
+    ctrl = check_ctrl(faces, ctrl)
+    face_idx, bary = _check_queries(ctrl.shape[0], face_idx, bary)
+    return np.einsum("nk,nkd->nd", basis(bary), ctrl[face_idx])
+
+
+@dataclass(frozen=True)
+class PatchDerivatives:
+    """Values and uv-derivatives at query points, each ``(n, d)``.
+
+    ``uu``, ``uv``, ``vv`` are ``None`` unless second derivatives were asked for.
+    """
+
+    values: np.ndarray
+    du: np.ndarray
+    dv: np.ndarray
+    uu: np.ndarray | None = None
+    uv: np.ndarray | None = None
+    vv: np.ndarray | None = None
+
+
+def evaluate_derivatives(
+    uv: np.ndarray,
+    faces: np.ndarray,
+    ctrl: np.ndarray,
+    face_idx: np.ndarray,
+    bary: np.ndarray,
+    *,
+    second: bool = False,
+) -> PatchDerivatives:
+    """Values, first (and optionally second) uv-derivatives at scattered queries.
+
+    Parameters
+    ----------
+    uv : (V, 2), faces : (F, 3), ctrl : (F, 21, d)
+    face_idx : (n,) int, bary : (n, 3)
+    second : also return ``uu``, ``uv``, ``vv``
+
+    Returns
+    -------
+    PatchDerivatives with ``(n, d)`` arrays.
+    """
+    ctrl = check_ctrl(faces, ctrl)
+    face_idx, bary = _check_queries(ctrl.shape[0], face_idx, bary)
+    G = face_bary_gradients(uv, np.asarray(faces)[face_idx])  # (n, 3, 2)
+    c = ctrl[face_idx]  # (n, 21, d)
+    values = np.einsum("nk,nkd->nd", basis(bary), c)
+    dB = basis_gradient_bary(bary)  # (3, n, 21)
+    Bu = np.einsum("mnk,nm->nk", dB, G[:, :, 0])
+    Bv = np.einsum("mnk,nm->nk", dB, G[:, :, 1])
+    du = np.einsum("nk,nkd->nd", Bu, c)
+    dv = np.einsum("nk,nkd->nd", Bv, c)
+    if not second:
+        return PatchDerivatives(values, du, dv)
+    H = basis_hessian_bary(bary)  # (3, 3, n, 21)
+    Buu = np.einsum("abnk,na,nb->nk", H, G[:, :, 0], G[:, :, 0])
+    Buv = np.einsum("abnk,na,nb->nk", H, G[:, :, 0], G[:, :, 1])
+    Bvv = np.einsum("abnk,na,nb->nk", H, G[:, :, 1], G[:, :, 1])
+    return PatchDerivatives(
+        values,
+        du,
+        dv,
+        np.einsum("nk,nkd->nd", Buu, c),
+        np.einsum("nk,nkd->nd", Buv, c),
+        np.einsum("nk,nkd->nd", Bvv, c),
+    )
+
+
+def evaluate_grid(
+    ctrl: np.ndarray, bary: np.ndarray, *, uv: np.ndarray | None = None, faces: np.ndarray | None = None
+) -> tuple[np.ndarray, ...]:
+    """Evaluate every patch at the same barycentric samples (fast path).
+
+    One matrix product ``(m, 21) @ (21, F*d)``; no per-face loop.
+
+    Parameters
+    ----------
+    ctrl : (F, 21, d)
+    bary : (n, 3) samples shared by all faces
+    uv, faces : optional; when given, also return uv-derivatives
+
+    Returns
+    -------
+    values : (F, n, d)
+    and, with ``uv``/``faces``: du, dv : (F, n, d)
+    """
+    ctrl = np.asarray(ctrl, dtype=np.float64)
+    if ctrl.ndim != 3 or ctrl.shape[1] != NCTRL:
+        raise InputError(f"control points must have shape (F, {NCTRL}, d), got {ctrl.shape}")
+    bary = np.asarray(bary, dtype=np.float64)
+    nf, _, d = ctrl.shape
+    n = bary.shape[0]
+    flat = ctrl.transpose(1, 0, 2).reshape(NCTRL, nf * d)
+    if uv is None or faces is None:
+        vals = basis(bary) @ flat  # (n, F*d)
+        return (np.ascontiguousarray(vals.reshape(n, nf, d).transpose(1, 0, 2)),)
+    stack = np.concatenate([basis(bary), *basis_gradient_bary(bary)])  # (4n, 21)
+    out = (stack @ flat).reshape(4, n, nf, d)
+    G = face_bary_gradients(uv, faces)  # (F, 3, 2)
+    vals = out[0].transpose(1, 0, 2)
+    du = np.einsum("knfd,fk->fnd", out[1:], G[:, :, 0])
+    dv = np.einsum("knfd,fk->fnd", out[1:], G[:, :, 1])
+    return np.ascontiguousarray(vals), du, dv
+
+
+def numeric_continuity(
+    uv: np.ndarray, faces: np.ndarray, ctrl: np.ndarray, n_samples: int = 7
+) -> dict:
+    """Sample values and uv-gradients from both sides of every interior edge.
+
+    At ``n_samples`` points evenly spaced along each interior edge (end points
+    included) the two adjacent patches are evaluated, each in its own face.
+
+    Returns
+    -------
+    dict with
+        ``c0_max``, ``c1_max`` : largest value / gradient jump (absolute),
+        ``c0_relative`` : ``c0_max`` over the control net's bounding-box diagonal,
+        ``c1_relative`` : ``c1_max`` over the RMS gradient norm at the samples,
+        ``c0_per_edge``, ``c1_per_edge`` : ``(E_int,)`` jumps per interior edge,
+        ``edges`` : ``(E_int,)`` edge ids (of :class:`Triangulation`),
+        ``scale``, ``gradient_scale`` : the two normalisers.
+    """
+    tri = Triangulation(uv, faces)
+    ctrl = check_ctrl(tri.faces, ctrl)
+    if n_samples < 2:
+        raise InputError(f"n_samples must be >= 2, got {n_samples}")
+    ie = tri.interior_edges
+    d = ctrl.shape[2]
+    flat = ctrl.reshape(-1, d)
+    scale = float(np.linalg.norm(flat.max(0) - flat.min(0))) if flat.size else 0.0
+    if ie.size == 0:
+        return dict(c0_max=0.0, c1_max=0.0, c0_relative=0.0, c1_relative=0.0,
+                    c0_per_edge=np.zeros(0), c1_per_edge=np.zeros(0), edges=ie,
+                    scale=scale, gradient_scale=0.0)
+    a, b = tri.edges[ie, 0], tri.edges[ie, 1]
+    t = np.linspace(0.0, 1.0, n_samples)
+    ne = ie.size
+    results = []
+    for side in range(2):
+        f = tri.edge_faces[ie, side]
+        fv = tri.faces[f]  # (ne, 3)
+        la = np.argmax(fv == a[:, None], axis=1)
+        lb = np.argmax(fv == b[:, None], axis=1)
+        bary = np.zeros((ne, n_samples, 3))
+        rows = np.arange(ne)[:, None]
+        bary[rows, np.arange(n_samples)[None, :], la[:, None]] = 1.0 - t
+        bary[rows, np.arange(n_samples)[None, :], lb[:, None]] = t
+        r = evaluate_derivatives(tri.uv, tri.faces, ctrl, np.repeat(f, n_samples), bary.reshape(-1, 3))
+        results.append(r)
+    r0, r1 = results
+    c0 = np.linalg.norm(r0.values - r1.values, axis=1).reshape(ne, n_samples).max(1)
+    g0 = np.stack([r0.du, r0.dv], axis=-1)  # (m, d, 2)
+    g1 = np.stack([r1.du, r1.dv], axis=-1)
+    c1 = np.linalg.norm((g0 - g1).reshape(g0.shape[0], -1), axis=1).reshape(ne, n_samples).max(1)
+    gscale = float(np.sqrt(0.5 * (np.mean(np.sum(g0**2, axis=(1, 2))) + np.mean(np.sum(g1**2, axis=(1, 2))))))
+    tiny = np.finfo(float).tiny
+    return dict(
+        c0_max=float(c0.max()),
+        c1_max=float(c1.max()),
+        c0_relative=float(c0.max() / max(scale, tiny)),
+        c1_relative=float(c1.max() / max(gscale, tiny)),
+        c0_per_edge=c0,
+        c1_per_edge=c1,
+        edges=ie,
+        scale=scale,
+        gradient_scale=gscale,
+    )
