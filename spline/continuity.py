@@ -1,0 +1,92 @@
+"""Algebraic C0/C1 residuals of per-patch control points (DESIGN.md §2).
+
+For faces ``A = (p, r, s)`` and ``B = (q, s, r)`` sharing edge ``(r, s)`` the
+patches join C1 iff the boundary control points agree and, for ``i = 0..4``,
+``X_q = λ X_p + μ X_r + ν X_s`` with ``q = λ p + μ r + ν s``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ._index import local_index
+from .propagation import diamond_coefficients
+from .topology import Triangulation
+
+
+def _table(fn) -> np.ndarray:
+    """(3, 3, ...) table indexed by the local index of r and s in a face."""
+    out = {}
+    for kr in range(3):
+        for ks in range(3):
+            if kr != ks:
+                out[(kr, ks)] = fn(3 - kr - ks, kr, ks)
+    shape = np.asarray(next(iter(out.values()))).shape
+    t = np.full((3, 3) + shape, -1, np.int64)
+    for (kr, ks), v in out.items():
+        t[kr, ks] = v
+    return t
+
+
+# For a face with local indices (kp, kr, ks): storage index of the C1 points, i = 0..4
+_XP = _table(lambda kp, kr, ks: [local_index({kp: 1, kr: i, ks: 4 - i}) for i in range(5)])
+_XR = _table(lambda kp, kr, ks: [local_index({kr: i + 1, ks: 4 - i}) for i in range(5)])
+_XS = _table(lambda kp, kr, ks: [local_index({kr: i, ks: 5 - i}) for i in range(5)])
+# boundary points of the edge r^j s^(5-j), j = 0..5
+_EDGE = _table(lambda kp, kr, ks: [local_index({kr: j, ks: 5 - j}) for j in range(6)])
+
+
+def _edge_locals(tri: Triangulation, ie: np.ndarray):
+    f0, f1 = tri.edge_faces[ie, 0], tri.edge_faces[ie, 1]
+    k0, k1 = tri.edge_opposite[ie, 0], tri.edge_opposite[ie, 1]
+    # r = a, s = b; in f0: a = k0+1, b = k0+2; in f1: b = k1+1, a = k1+2
+    return f0, f1, k0, (k0 + 1) % 3, (k0 + 2) % 3, k1, (k1 + 2) % 3, (k1 + 1) % 3
+
+
+def c1_vectors(tri: Triangulation, ctrl: np.ndarray) -> np.ndarray:
+    """Raw C1 residual vectors ``(E_int, 5, d)`` (linear in ``ctrl``)."""
+    ctrl = np.asarray(ctrl, dtype=np.float64)
+    ie = tri.interior_edges
+    f0, f1, kp, kr0, ks0, kq, kr1, ks1 = _edge_locals(tri, ie)
+    F, UV = tri.faces, tri.uv
+    a, b = tri.edges[ie, 0], tri.edges[ie, 1]
+    coef = diamond_coefficients(UV[F[f0, kp]], UV[F[f1, kq]], UV[a], UV[b])
+    xq = ctrl[f1[:, None], _XP[kr1, ks1]]  # f_B(q r^i s^(4-i)): same label pattern with q in place of p
+    xp = ctrl[f0[:, None], _XP[kr0, ks0]]
+    xr = ctrl[f0[:, None], _XR[kr0, ks0]]
+    xs = ctrl[f0[:, None], _XS[kr0, ks0]]
+    return (coef[:, 0, None, None] * xq + coef[:, 1, None, None] * xp
+            + coef[:, 2, None, None] * xr + coef[:, 3, None, None] * xs)
+
+
+def continuity_residuals(tri: Triangulation, ctrl: np.ndarray) -> dict[str, np.ndarray]:
+    """Per interior edge residuals of the C0 and C1 conditions.
+
+    Parameters
+    ----------
+    tri : Triangulation
+    ctrl : (F, 21, d) control points
+
+    Returns
+    -------
+    dict with ``c0``: (E_int,) max over the 6 boundary points of the mismatch
+    between the two patches, and ``c1``: (E_int, 5) norm of each diamond residual.
+    """
+    ctrl = np.asarray(ctrl, dtype=np.float64)
+    ie = tri.interior_edges
+    f0, f1, kp, kr0, ks0, kq, kr1, ks1 = _edge_locals(tri, ie)
+    e0 = ctrl[f0[:, None], _EDGE[kr0, ks0]]
+    e1 = ctrl[f1[:, None], _EDGE[kr1, ks1]]
+    c0 = np.linalg.norm(e0 - e1, axis=-1).max(axis=1) if ie.size else np.zeros(0)
+    return dict(c0=c0, c1=np.linalg.norm(c1_vectors(tri, ctrl), axis=-1))
+
+
+def continuity_report(tri: Triangulation, ctrl: np.ndarray) -> dict[str, float]:
+    """Worst C0/C1 residuals, absolute and relative to the control net's size."""
+    res = continuity_residuals(tri, ctrl)
+    pts = np.asarray(ctrl).reshape(-1, np.asarray(ctrl).shape[-1])
+    scale = float(np.ptp(pts, axis=0).max()) if pts.size else 1.0
+    scale = scale if scale > 0 else 1.0
+    c0 = float(res["c0"].max()) if res["c0"].size else 0.0
+    c1 = float(res["c1"].max()) if res["c1"].size else 0.0
+    return dict(c0_max=c0, c1_max=c1, c0_relative=c0 / scale, c1_relative=c1 / scale, scale=scale,
+                interior_edges=int(tri.interior_edges.size))

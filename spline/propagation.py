@@ -1,0 +1,451 @@
+"""The propagation scheme as a sparse linear map ``P = M @ free`` (DESIGN.md §3).
+
+Free variables (``nfree`` of them, each a point in R^3):
+
+* per vertex ``v``: the corner point ``z_v`` and two *frame points*
+  ``h_v(v + d_v e_x / 5)``, ``h_v(v + d_v e_y / 5)`` of the corner region's affine
+  map ``h_v`` (``d_v`` = mean length of the edges at ``v``, so frames are
+  well-conditioned); every star point ``f(v^4 w) = h_v(v + (w - v)/5)`` is an
+  affine combination of these three;
+* the near-corner inner points and middle edge points that the per-vertex
+  ``i = 1`` systems leave free (normally all inner points);
+* one flip point per interior edge, both middle points and the flip point of
+  each boundary edge.
+
+Propagation order: corner regions, then edges, then flips. The ``i = 1``
+conditions of the interior edges at a vertex ``s`` couple the middle edge
+points ``f(r^2 s^3)`` and the near-corner inner points at ``s``. Instead of
+always solving for the middle points (the paper's choice, which divides by a
+coefficient that vanishes when two edges through ``s`` are collinear, paper
+7.2.2), each vertex system is reduced by Gauss--Jordan elimination with
+complete, weighted pivoting: middle points are preferred, an inner point is
+computed instead when the middle point's coefficient is small. A singular
+vertex (four edges on two lines) makes its system lose rank by one; the
+elimination then leaves one more unknown free, which is exactly the extra
+dimension of the spline space there. Every surface ``M @ free`` is exactly C1.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from .net import NetLayout, layout_of, point_index
+from .topology import Triangulation
+
+#: Pivots below this (equations are normalised to O(1) coefficients) count as zero.
+SINGULAR_TOL = 1e-10
+#: Pivot preference of inner points relative to middle edge points.
+INNER_PIVOT_WEIGHT = 0.2
+
+KIND_CORNER, KIND_FRAME, KIND_INNER, KIND_MID, KIND_FLIP = 0, 1, 2, 3, 4
+KIND_NAMES = ("corner", "frame", "inner", "mid", "flip")
+
+
+def _area(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Signed areas of triangles ``(x, y, z)``, each ``(n, 2)``."""
+    return 0.5 * ((y[:, 0] - x[:, 0]) * (z[:, 1] - x[:, 1]) - (y[:, 1] - x[:, 1]) * (z[:, 0] - x[:, 0]))
+
+
+def diamond_coefficients(p: np.ndarray, q: np.ndarray, r: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Normalised coefficients of the C1 relation of a diamond.
+
+    With ``q = λ p + μ r + ν s`` the condition ``X_q - λ X_p - μ X_r - ν X_s = 0``
+    is scaled by ``|area(p, r, s)| / (|area(p, r, s)| + |area(q, s, r)|)`` so that
+    all coefficients are dimensionless and O(1).
+
+    Returns
+    -------
+    (n, 4) coefficients of ``(X_q, X_p, X_r, X_s)``; they sum to zero.
+    """
+    T = _area(p, r, s)
+    lam = _area(q, r, s) / T
+    mu = _area(p, q, s) / T
+    nu = _area(p, r, q) / T
+    scale = np.abs(T) / (np.abs(T) + np.abs(_area(q, s, r)))
+    return np.column_stack([np.ones_like(lam), -lam, -mu, -nu]) * scale[:, None]
+
+
+@dataclass(frozen=True, eq=False)
+class SplineSpace:
+    """The C1 quintic spline space over a triangulation, as ``P = M @ free``.
+
+    Attributes
+    ----------
+    tri : Triangulation
+    layout : NetLayout
+    M : scipy.sparse.csr_array (n_points, n_free)
+        Rows sum to one (affine combinations).
+    point_index : (F, 21) int64
+        Global point id of every patch control point.
+    corner_free : (V,) int64
+        Free index of corner point ``z_v`` (equal to ``v``).
+    frame_free : (V, 2) int64
+        Free indices of the frame points of vertex ``v``.
+    frame_scale : (V,) float64
+        ``d_v``: the frame points sit over ``v + d_v e_x / 5`` and ``v + d_v e_y / 5``.
+    free_kind : (n_free,) int8
+        ``KIND_CORNER``, ``KIND_FRAME``, ``KIND_INNER``, ``KIND_MID`` or ``KIND_FLIP``.
+    free_point : (n_free,) int64
+        Global point id a free variable *is* (``-1`` for frame points).
+    singular_vertices : (σ,) int64
+        Vertices whose ``i = 1`` system lost rank (one extra free point each).
+    """
+
+    tri: Triangulation
+    layout: NetLayout
+    M: sp.csr_array
+    point_index: np.ndarray
+    corner_free: np.ndarray
+    frame_free: np.ndarray
+    frame_scale: np.ndarray
+    free_kind: np.ndarray
+    free_point: np.ndarray
+    singular_vertices: np.ndarray
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def n_free(self) -> int:
+        return int(self.M.shape[1])
+
+    @property
+    def n_points(self) -> int:
+        return int(self.M.shape[0])
+
+    @property
+    def n_singular(self) -> int:
+        return int(self.singular_vertices.size)
+
+    def expected_dimension(self) -> int:
+        """``21 F - 11 E_int + 3 V_int + σ``: dimension of the C1 quintic spline space."""
+        t = self.tri
+        v_int = int((~t.boundary_vertex_mask).sum())
+        return 21 * t.n_faces - 11 * int(t.interior_edges.size) + 3 * v_int + self.n_singular
+
+    def points(self, free: np.ndarray) -> np.ndarray:
+        """All control points ``(n_points, d)`` from ``free: (n_free, d)``."""
+        free = np.asarray(free, dtype=np.float64)
+        if free.shape[0] != self.n_free:
+            raise ValueError(f"free must have {self.n_free} rows, got {free.shape[0]}")
+        return self.M @ free
+
+    def control_points(self, free: np.ndarray) -> np.ndarray:
+        """Per-patch control points ``(F, 21, d)`` from ``free: (n_free, d)``."""
+        return self.points(free)[self.point_index]
+
+    def free_from_points(self, points: np.ndarray) -> np.ndarray:
+        """Read the free variables off a full C1 net ``(n_points, d)``.
+
+        Free control points are read directly; frame points are recovered from
+        the star points (least squares over each vertex's stars, exact for a C1 net).
+        """
+        points = np.asarray(points, dtype=np.float64)
+        out = np.zeros((self.n_free,) + points.shape[1:])
+        is_pt = self.free_point >= 0
+        out[is_pt] = points[self.free_point[is_pt]]
+        # frames: solve star = (1-a-b) z + a p1 + b p2 for p1, p2 per vertex (least squares)
+        t, lay = self.tri, self.layout
+        e = np.arange(t.n_edges)
+        rows_v, rows_w, rows_pt = [], [], []
+        for end in (0, 1):
+            rows_v.append(t.edges[:, end])
+            rows_w.append(t.edges[:, 1 - end])
+            rows_pt.append(lay.star(e, end))
+        v = np.concatenate(rows_v)
+        w = np.concatenate(rows_w)
+        pt = np.concatenate(rows_pt)
+        d = (t.uv[w] - t.uv[v]) / self.frame_scale[v, None]  # (2E, 2) = (alpha, beta)
+        rhs = points[pt] - points[v]  # = alpha (p1 - z) + beta (p2 - z)
+        nv = t.n_vertices
+        G = np.zeros((nv, 2, 2))
+        np.add.at(G, v, d[:, :, None] * d[:, None, :])
+        B = np.zeros((nv, 2) + points.shape[1:])
+        np.add.at(B, v, d.reshape(d.shape + (1,) * (points.ndim - 1)) * rhs[:, None])
+        sol = np.linalg.solve(G, B.reshape(nv, 2, -1)).reshape(B.shape)
+        out[self.frame_free[:, 0]] = points[:nv] + sol[:, 0]
+        out[self.frame_free[:, 1]] = points[:nv] + sol[:, 1]
+        return out
+
+
+def _rank_within(keys: np.ndarray, n_groups: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Stable order by ``keys``, each element's rank inside its group, and group counts."""
+    order = np.argsort(keys, kind="stable")
+    counts = np.bincount(keys, minlength=n_groups)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    rank = np.empty(keys.size, np.int64)
+    rank[order] = np.arange(keys.size) - starts[keys[order]]
+    return order, rank, counts
+
+
+def _eliminate(A: np.ndarray, K: np.ndarray, weight: np.ndarray, tol: float):
+    """Batched Gauss--Jordan with weighted complete pivoting, in place.
+
+    Parameters
+    ----------
+    A : (B, m, c) coefficients of the unknowns; K : (B, m, m) of the known points.
+    weight : (c,) pivot preference per column.
+
+    Returns
+    -------
+    piv_col : (B, m) pivot column of each row, -1 for rows left without a pivot
+        (linearly dependent on the others).
+    """
+    nb, m, c = A.shape
+    piv_col = np.full((nb, m), -1, np.int64)
+    row_done = np.zeros((nb, m), bool)
+    col_done = np.zeros((nb, c), bool)
+    active = np.ones(nb, bool)
+    bidx = np.arange(nb)
+    for _ in range(m):
+        avail = ~row_done[:, :, None] & ~col_done[:, None, :]
+        mag = np.where(avail, np.abs(A), 0.0)
+        raw_max = mag.reshape(nb, -1).max(axis=1)
+        active &= raw_max > tol
+        if not active.any():
+            break
+        flat = np.argmax((mag * weight).reshape(nb, -1), axis=1)
+        r, col = np.divmod(flat, c)
+        b = bidx[active]
+        r, col = r[active], col[active]
+        piv = A[b, r, col]
+        A[b, r, :] /= piv[:, None]
+        K[b, r, :] /= piv[:, None]
+        f = A[b, :, col].copy()  # (nb_active, m) multipliers
+        f[np.arange(b.size), r] = 0.0
+        A[b] -= f[:, :, None] * A[b, r, None, :]
+        K[b] -= f[:, :, None] * K[b, r, None, :]
+        A[b, :, col] = 0.0
+        A[b, r, col] = 1.0
+        row_done[b, r] = True
+        col_done[b, col] = True
+        piv_col[b, r] = col
+    return piv_col
+
+
+def build_space(
+    uv: np.ndarray | Triangulation,
+    faces: np.ndarray | None = None,
+    *,
+    singular_tol: float = SINGULAR_TOL,
+    inner_weight: float = INNER_PIVOT_WEIGHT,
+) -> SplineSpace:
+    """Build the free-to-control map of the C1 quintic spline space.
+
+    Parameters
+    ----------
+    uv : (V, 2) float or a :class:`Triangulation`
+    faces : (F, 3) int, counter-clockwise in uv (omit when passing a Triangulation)
+
+    Returns
+    -------
+    SplineSpace
+    """
+    tri = uv if isinstance(uv, Triangulation) else Triangulation(uv, faces)
+    lay = layout_of(tri)
+    F, UV = tri.faces, tri.uv
+    nv, ne, nf = tri.n_vertices, tri.n_edges, tri.n_faces
+    npts = lay.n_points
+    edges = tri.edges
+
+    # ---- frame scale: mean incident edge length
+    elen = np.linalg.norm(UV[edges[:, 0]] - UV[edges[:, 1]], axis=1)
+    frame_scale = np.bincount(edges.ravel(), weights=np.repeat(elen, 2), minlength=nv) / np.bincount(
+        edges.ravel(), minlength=nv
+    )
+
+    # ---- the i = 1 equations, one per interior edge end
+    ie = tri.interior_edges
+    a, b = edges[ie, 0], edges[ie, 1]
+    f0, f1 = tri.edge_faces[ie, 0], tri.edge_faces[ie, 1]
+    k0, k1 = tri.edge_opposite[ie, 0], tri.edge_opposite[ie, 1]
+    p, q = F[f0, k0], F[f1, k1]
+    # in f0: a = local k0+1, b = local k0+2; in f1: b = local k1+1, a = local k1+2
+    eq_s = np.concatenate([a, b])
+    eq_r = np.concatenate([b, a])
+    eq_e = np.concatenate([ie, ie])
+    eq_end = np.concatenate([np.zeros_like(ie), np.ones_like(ie)])
+    eq_fp = np.concatenate([f0, f0])
+    eq_kp = np.concatenate([(k0 + 1) % 3, (k0 + 2) % 3])
+    eq_fq = np.concatenate([f1, f1])
+    eq_kq = np.concatenate([(k1 + 2) % 3, (k1 + 1) % 3])
+    pp, qq = np.concatenate([p, p]), np.concatenate([q, q])
+    coef = diamond_coefficients(UV[pp], UV[qq], UV[eq_r], UV[eq_s])  # (q, p, r, s)
+
+    # ---- local numbering: corners and equations per vertex
+    corner_v = F.ravel()
+    _, corner_rank, n_c = _rank_within(corner_v, nv)
+    _, eq_rank, n_e = _rank_within(eq_s, nv)
+    col_p = corner_rank[3 * eq_fp + eq_kp]
+    col_q = corner_rank[3 * eq_fq + eq_kq]
+
+    R_rows, R_cols, R_vals = [], [], []  # point <- free variable
+    D_rows, D_cols, D_vals = [], [], []  # point <- point
+    free_pts = []  # global ids of free control points (besides corners)
+
+    # frames: free variable ids 0..V-1 corners, V + 2v + {0,1} frames
+    R_rows.append(np.arange(nv))
+    R_cols.append(np.arange(nv))
+    R_vals.append(np.ones(nv))
+    for end in (0, 1):
+        s_v = edges[:, end]
+        w_v = edges[:, 1 - end]
+        al = (UV[w_v] - UV[s_v]) / frame_scale[s_v, None]
+        star = lay.star(np.arange(ne), end)
+        R_rows += [star, star, star]
+        R_cols += [s_v, nv + 2 * s_v, nv + 2 * s_v + 1]
+        R_vals += [1.0 - al[:, 0] - al[:, 1], al[:, 0], al[:, 1]]
+
+    max_coef = 0.0
+    # ---- per-vertex systems. Fast path: where every equation's middle-point
+    # coefficient passes the pivot preference, weighted complete pivoting would pick
+    # all middle points (a middle column lives in one row only), so no elimination.
+    good_eq = np.abs(coef[:, 2]) * 1.0 >= inner_weight * np.maximum(np.abs(coef[:, 0]), np.abs(coef[:, 1]))
+    good_eq &= np.abs(coef[:, 2]) > singular_tol
+    bad_v = np.zeros(nv, bool)
+    bad_v[eq_s[~good_eq]] = True
+    fast = ~bad_v[eq_s]
+    if fast.any():
+        i = np.flatnonzero(fast)
+        dep = lay.mid(eq_e[i], eq_end[i])
+        cr = coef[i, 2]
+        D_rows += [dep, dep, dep]
+        D_cols += [lay.inner(eq_fq[i], eq_kq[i]), lay.inner(eq_fp[i], eq_kp[i]), lay.star(eq_e[i], eq_end[i])]
+        D_vals += [-coef[i, 0] / cr, -coef[i, 1] / cr, -coef[i, 3] / cr]
+        max_coef = max(max_coef, float(np.abs(coef[i][:, [0, 1, 3]] / cr[:, None]).max()))
+    # all inner points at fast-path vertices are free
+    corner_fast = ~bad_v[corner_v]
+    free_pts.append(lay.inner0 + np.flatnonzero(corner_fast))
+
+    # slow path: batched elimination, grouped by system shape
+    singular = []
+    shape_key = np.where(bad_v, n_c * (n_e.max(initial=0) + 1) + n_e, -1)
+    eq_group_key = shape_key[eq_s]
+    for key in np.unique(shape_key[bad_v]):
+        verts = np.flatnonzero(shape_key == key)
+        nc, m = int(n_c[verts[0]]), int(n_e[verts[0]])
+        nb = verts.size
+        slot = np.full(nv, -1, np.int64)
+        slot[verts] = np.arange(nb)
+        # global ids of the unknowns: inner points (by corner rank) then mids (by eq rank)
+        col_pid = np.empty((nb, nc + m), np.int64)
+        cidx = np.flatnonzero(shape_key[corner_v] == key)
+        col_pid[slot[corner_v[cidx]], corner_rank[cidx]] = lay.inner0 + cidx  # inner id = inner0 + 3f + k
+        eqi = np.flatnonzero(eq_group_key == key)
+        bi, ri = slot[eq_s[eqi]], eq_rank[eqi]
+        col_pid[bi, nc + ri] = lay.mid(eq_e[eqi], eq_end[eqi])
+        star_pid = np.empty((nb, m), np.int64)
+        star_pid[bi, ri] = lay.star(eq_e[eqi], eq_end[eqi])
+        A = np.zeros((nb, m, nc + m))
+        K = np.zeros((nb, m, m))
+        np.add.at(A, (bi, ri, col_q[eqi]), coef[eqi, 0])
+        np.add.at(A, (bi, ri, col_p[eqi]), coef[eqi, 1])
+        A[bi, ri, nc + ri] = coef[eqi, 2]
+        K[bi, ri, ri] = coef[eqi, 3]
+        weight = np.concatenate([np.full(nc, inner_weight), np.ones(m)])
+        piv = _eliminate(A, K, weight, singular_tol)
+        # singular vertices: rows without pivot
+        lost = (piv < 0).sum(1)
+        if lost.any():
+            singular.append(np.repeat(verts[lost > 0], lost[lost > 0]))
+        is_piv_col = np.zeros((nb, nc + m), bool)
+        pb, pr = np.nonzero(piv >= 0)
+        is_piv_col[pb, piv[pb, pr]] = True
+        free_pts.append(col_pid[~is_piv_col])
+        # dependent rows: unknown[piv] = -sum_j A[r, j] u_j - sum_k K[r, k] star_k (j free columns)
+        dep = col_pid[pb, piv[pb, pr]]
+        Ar = A[pb, pr]  # (npiv, c)
+        Ar[is_piv_col[pb]] = 0.0
+        jj, cc = np.nonzero(Ar)
+        D_rows.append(dep[jj])
+        D_cols.append(col_pid[pb[jj], cc])
+        D_vals.append(-Ar[jj, cc])
+        Kr = K[pb, pr]
+        jj, cc = np.nonzero(Kr)
+        D_rows.append(dep[jj])
+        D_cols.append(star_pid[pb[jj], cc])
+        D_vals.append(-Kr[jj, cc])
+        if Ar.size:
+            max_coef = max(max_coef, float(np.abs(Ar).max()), float(np.abs(Kr).max()))
+    n_vertex_systems = int(bad_v.sum())
+    stage2 = len(D_rows)
+
+    # ---- boundary edges: both middle points and the face's flip are free
+    be = tri.boundary_edges
+    bf = np.where(tri.edge_faces[be, 0] >= 0, tri.edge_faces[be, 0], tri.edge_faces[be, 1])
+    bk = np.where(tri.edge_faces[be, 0] >= 0, tri.edge_opposite[be, 0], tri.edge_opposite[be, 1])
+    free_pts += [lay.mid(be, 0), lay.mid(be, 1), lay.flip(bf, bk)]
+
+    # ---- flips of interior edges: i = 2, r = a, s = b; the flip with the larger coefficient is computed
+    c2 = diamond_coefficients(UV[p], UV[q], UV[a], UV[b])  # (q, p, r, s)
+    flip_p, flip_q = lay.flip(f0, k0), lay.flip(f1, k1)
+    mid_r, mid_s = lay.mid(ie, 0), lay.mid(ie, 1)
+    q_dep = np.abs(c2[:, 0]) >= np.abs(c2[:, 1])
+    dep = np.where(q_dep, flip_q, flip_p)
+    other = np.where(q_dep, flip_p, flip_q)
+    c_dep = np.where(q_dep, c2[:, 0], c2[:, 1])
+    c_oth = np.where(q_dep, c2[:, 1], c2[:, 0])
+    free_pts.append(other)
+    D_rows += [dep, dep, dep]
+    D_cols += [other, mid_r, mid_s]
+    D_vals += [-c_oth / c_dep, -c2[:, 2] / c_dep, -c2[:, 3] / c_dep]
+    if ie.size:
+        max_coef = max(max_coef, float(np.abs(np.concatenate(D_vals[-3:])).max()))
+
+    # ---- free variables
+    free_pts = np.sort(np.concatenate(free_pts)) if free_pts else np.zeros(0, np.int64)
+    n_free = 3 * nv + free_pts.size
+    free_id = np.arange(3 * nv, n_free)
+    R_rows.append(free_pts)
+    R_cols.append(free_id)
+    R_vals.append(np.ones(free_pts.size))
+    R = sp.csr_array(
+        (np.concatenate(R_vals), (np.concatenate(R_rows), np.concatenate(R_cols))), shape=(npts, n_free)
+    )
+
+    def _coo(rows, cols, vals, shape):
+        if not rows:
+            return sp.csr_array(shape)
+        return sp.csr_array((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=shape)
+
+    # Level by level: middle / inner points from stars and free points, then flips
+    # from middle points and free flips. The levels' row sets are disjoint.
+    # Each level is one sparse product with (identity on the other rows + dependencies):
+    # P = (I_other + D3) (I_other + D2) R x.
+    def _level(rows, cols, vals):
+        dep = np.zeros(npts, bool)
+        r = np.concatenate(rows) if rows else np.zeros(0, np.int64)
+        dep[r] = True
+        keep = np.flatnonzero(~dep)
+        return _coo(list(rows) + [keep], list(cols) + [keep], list(vals) + [np.ones(keep.size)], (npts, npts))
+
+    L2 = _level(D_rows[:stage2], D_cols[:stage2], D_vals[:stage2])
+    L3 = _level(D_rows[stage2:], D_cols[stage2:], D_vals[stage2:])
+    M = (L3 @ (L2 @ R)).tocsr()
+    M.sum_duplicates()
+    M.eliminate_zeros()
+
+    free_kind = np.empty(n_free, np.int8)
+    free_kind[:nv] = KIND_CORNER
+    free_kind[nv : 3 * nv] = KIND_FRAME
+    kinds = np.full(npts, -1, np.int8)
+    kinds[lay.mid0 : lay.inner0] = KIND_MID
+    kinds[lay.inner0 : lay.flip0] = KIND_INNER
+    kinds[lay.flip0 :] = KIND_FLIP
+    free_kind[3 * nv :] = kinds[free_pts]
+    free_point = np.concatenate([np.arange(nv), np.full(2 * nv, -1, np.int64), free_pts])
+    frame_free = nv + 2 * np.arange(nv)[:, None] + np.arange(2)[None, :]
+    sing = np.sort(np.concatenate(singular)) if singular else np.zeros(0, np.int64)
+    return SplineSpace(
+        tri=tri,
+        layout=lay,
+        M=M,
+        point_index=point_index(tri),
+        corner_free=np.arange(nv),
+        frame_free=frame_free,
+        frame_scale=frame_scale,
+        free_kind=free_kind,
+        free_point=free_point,
+        singular_vertices=sing,
+        stats=dict(max_coefficient=max_coef, nnz=int(M.nnz), eliminated_vertices=n_vertex_systems),
+    )
