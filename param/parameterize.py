@@ -184,6 +184,16 @@ def _raw_map(vm: ValidatedMesh, method: str, uv: np.ndarray | None) -> np.ndarra
     return uv.copy()
 
 
+def _height_axes_hint(vm: ValidatedMesh) -> str:
+    """When ``V[:, :2]`` folds, name another coordinate pair that is a fold-free projection."""
+    for ax in ((0, 2), (1, 2)):
+        a = signed_areas(vm.V[:, ax], vm.F)
+        if (a > 0).all() or (a < 0).all():
+            return (f" (V[:, :2] is not a height-field projection, but V[:, [{ax[0]}, {ax[1]}]] is: "
+                    f"pass uv=V[:, [{ax[0]}, {ax[1]}]])")
+    return ""
+
+
 def _repair(vm: ValidatedMesh, raw: np.ndarray, method: str) -> tuple[np.ndarray, str]:
     """A fold-free replacement for ``raw``: the method's outer boundary reached by a
     composite harmonic map from a Tutte embedding, else the Tutte embedding itself."""
@@ -264,11 +274,12 @@ def parameterize(
     if n_flip or n_deg:
         what = f"{n_flip} flipped and {n_deg} degenerate triangles (first: " \
                f"{', '.join(str(int(i)) for i in np.flatnonzero(flipped | degen)[:5])})"
+        hint = _height_axes_hint(vm) if method == "uv" and uv is None else ""
         if not repair:
             raise MeshError(f"the {method} parameterization folds {n_flip + n_deg} triangles: {what}; "
-                            "enable repair or choose another method", ["folded"])
+                            f"enable repair or choose another method{hint}", ["folded"])
         raw, repaired = _repair(vm, raw, method)
-        messages.append(f"the {method} map had {what}; repaired with a {repaired} map")
+        messages.append(f"the {method} map had {what}; repaired with a {repaired} map{hint}")
     uvn, centre, scale = normalise(raw)
     flipped, degen = fold_mask(uvn, Fv)
     if (flipped | degen).any():

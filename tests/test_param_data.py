@@ -85,3 +85,18 @@ def test_pelvis_rejected():
         parameterize(m.V, m.F, "harmonic")
     with pytest.raises(MeshError, match=r"bowtie\) vertices.*: 22 \(first"):
         validate_mesh(m.V, m.F, keep_largest=True)  # the largest component still has bowties
+
+
+@needs_data
+@pytest.mark.slow
+def test_mountain_is_a_y_up_height_field():
+    path = DATA / "mountain.obj"
+    if not path.exists():
+        pytest.skip("mountain.obj not present")
+    m = read_mesh(path)
+    with pytest.raises(MeshError, match=r"folds \d+ triangles.*pass uv=V\[:, \[0, 2\]\]"):
+        parameterize(m.V, m.F, "uv", repair=False)
+    p = parameterize(m.V, m.F, "uv", uv=m.V[:, [0, 2]])
+    assert p.repaired is None and p.transform.mirrored  # (x, z) is clockwise seen from +y
+    np.testing.assert_allclose(p.transform.to_raw(p.uv), m.V[:, [0, 2]] * [-1.0, 1.0], atol=1e-9)
+    Triangulation(p.uv, p.faces)
