@@ -14,8 +14,10 @@ the result. The only exceptions are
 OBJ and OFF are parsed here (trimesh's OBJ reader drops unreferenced vertices
 silently when ``vt`` lines are present and keeps only one ``vt`` per vertex
 without saying so; its OFF reader fails on mixed polygon sizes). PLY, STL and
-GLB/GLTF go through ``trimesh.load(..., process=False)``. Polygons are
-triangulated as fans ``(p0, p_i, p_i+1)``.
+GLB/GLTF go through ``trimesh.load(..., process=False)``. OBJ and OFF polygons are
+triangulated as fans ``(p0, p_i, p_i+1)`` in file order; trimesh triangulates PLY
+polygons itself and, when a PLY mixes triangles with larger polygons, lists the
+triangles first (vertex order is still kept; all-triangle files keep face order).
 """
 from __future__ import annotations
 
