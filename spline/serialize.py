@@ -187,6 +187,8 @@ def read_surface(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.nd
         raise SurfaceFileError(f"{path}: no such surface file")
     src = str(path)
     if kind == ".npz":
+        if not zipfile.is_zipfile(path):
+            raise SurfaceFileError(f"{src}: not an NPZ archive (no zip structure)")
         try:
             with np.load(path, allow_pickle=False) as z:
                 raw = {k: z[k] for k in z.files}
