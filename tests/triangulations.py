@@ -1,0 +1,51 @@
+"""Hypothesis strategies over planar triangulations (shared by the test modules).
+
+Every case the spline core must handle: random Delaunay meshes with holes,
+L-shaped (concave) and annular domains, slivers (aspect > 100), structured,
+alternating and criss-cross grids (exactly collinear edges, singular vertices),
+nearly collinear perturbations of those, a lone triangle, fans of 3..12 triangles.
+"""
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import strategies as st
+
+from trispline.spline import domains
+
+
+@st.composite
+def triangulations(draw, max_faces: int = 400):
+    kind = draw(st.sampled_from(
+        ["delaunay", "holes", "lshape", "annulus", "slivers", "grid", "alternate", "crisscross",
+         "near_alternate", "lone", "fan", "open_fan"]
+    ))
+    seed = draw(st.integers(0, 10_000))
+    if kind == "delaunay":
+        uv, f = domains.random_delaunay(draw(st.integers(5, 120)), seed=seed)
+    elif kind == "holes":
+        uv, f = domains.random_delaunay(draw(st.integers(60, 160)), holes=draw(st.integers(1, 3)), seed=seed)
+    elif kind == "lshape":
+        uv, f = domains.l_shape(draw(st.integers(20, 80)), seed=seed)
+    elif kind == "annulus":
+        uv, f = domains.annulus(draw(st.integers(1, 4)), draw(st.integers(6, 20)))
+    elif kind == "slivers":
+        uv, f = domains.slivers(draw(st.integers(2, 12)), aspect=draw(st.floats(100, 1e4)))
+    elif kind in ("grid", "alternate", "crisscross"):
+        n = draw(st.integers(1, 7))
+        diag = {"grid": "regular"}.get(kind, kind)
+        uv, f = domains.grid(n, draw(st.integers(1, 7)), diagonal=diag)
+    elif kind == "near_alternate":
+        uv, f = domains.grid(draw(st.integers(2, 6)), diagonal="alternate")
+        uv = domains.perturb(uv, f, draw(st.sampled_from([1e-9, 1e-6, 1e-3])), seed=seed)
+    elif kind == "lone":
+        uv, f = domains.lone_triangle()
+    elif kind == "fan":
+        uv, f = domains.fan(draw(st.integers(3, 12)), radius_jitter=draw(st.sampled_from([0.0, 0.4])), seed=seed)
+    else:
+        uv, f = domains.fan(draw(st.integers(1, 12)), closed=False)
+    # a random similarity keeps every property (rotation, scale, translation)
+    ang = draw(st.floats(0, 2 * np.pi))
+    scale = draw(st.sampled_from([1e-3, 1.0, 1e3]))
+    R = np.array([[np.cos(ang), -np.sin(ang)], [np.sin(ang), np.cos(ang)]])
+    uv = scale * uv @ R.T + draw(st.floats(-10, 10))
+    return kind, uv, f
