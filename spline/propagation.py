@@ -35,7 +35,10 @@ from .net import NetLayout, layout_of, point_index
 from .topology import Triangulation
 
 #: Pivots below this (equations are normalised to O(1) coefficients) count as zero.
-SINGULAR_TOL = 1e-10
+#: Measured on perturbed alternating and criss-cross grids: with 1e-13 the C1
+#: residual stays below 2e-14 (relative) for every perturbation size, while the
+#: composed map M stays bounded (the 1/pivot growth cancels in M).
+SINGULAR_TOL = 1e-13
 #: Pivot preference of inner points relative to middle edge points.
 INNER_PIVOT_WEIGHT = 0.2
 
@@ -447,5 +450,6 @@ def build_space(
         free_kind=free_kind,
         free_point=free_point,
         singular_vertices=sing,
-        stats=dict(max_coefficient=max_coef, nnz=int(M.nnz), eliminated_vertices=n_vertex_systems),
+        stats=dict(max_coefficient=float(np.abs(M.data).max(initial=0.0)), max_elimination_coefficient=max_coef,
+                   nnz=int(M.nnz), eliminated_vertices=n_vertex_systems),
     )
