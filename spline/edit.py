@@ -1,0 +1,406 @@
+"""Incremental local editing of a C1 spline surface (the paper's section 5.3).
+
+    editor = SplineEditor(space, free)            # or .from_fit(result) / .from_surface(surface)
+    res = editor.move(editor.inner_point(f, 0), xyz)
+    res.points, res.faces, res.ctrl               # what changed, which patches, their new nets
+
+How an edit realises the paper's order
+--------------------------------------
+The propagation map is built as ``M = L3 @ L2 @ R`` (:mod:`.propagation`): ``R`` places
+the free points and expands each corner region (corner point + two frame points ->
+all star points of the vertex), ``L2`` propagates each vertex's ``i = 1`` diamonds
+(middle edge points, or inner points where the pivoting switched direction), ``L3``
+propagates the ``i = 2`` diamonds (the dependent flip point of each interior edge).
+Column ``j`` of ``M`` is therefore the image of one free point through the three
+stages, corner regions -> edges -> flips: its nonzero rows are *exactly* the control
+points that moving free point ``j`` changes, and every row of ``M`` is the fully
+propagated affine combination of free points. An edit reads the column's rows
+(CSC structure) and recomputes those rows from the current free vector,
+``P[rows] = M[rows] @ free`` (raw CSR arrays, no scipy slicing). Because rows are
+recomputed from scratch, never updated by differences, any sequence of edits
+equals a full rebuild ``M @ free`` (up to the summation order, which is the same as
+scipy's, so in practice bit for bit), and an edit costs ``O(nnz of the column's rows)``
+-- bounded by the valences, independent of the mesh size.
+
+Which patches an edit touches (from the structure, DESIGN.md §3 'Local control'):
+
+========================  ==============================================================
+free point                patches that change
+========================  ==============================================================
+corner / frame of ``v``   the faces around ``v`` (its star points, the middle points at
+                          ``v``'s end of its edges, their dependent flips -- all in the ring)
+inner point of ``f``      ``f`` and the faces across ``f``'s two edges at that corner
+at corner ``s``           (its two middle points and their edges' flips); where the
+                          vertex system of ``s`` switched direction (degenerate frames),
+                          at most the faces around ``s``
+flip point of edge ``e``  the two faces of ``e`` (only the other flip changes)
+boundary middle / flip    its own face only
+========================  ==============================================================
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from .errors import InputError, first_few
+from .propagation import KIND_FRAME, KIND_NAMES, SplineSpace
+
+__all__ = ["SplineEditor", "EditResult", "DependentPointError", "NotC1Error"]
+
+#: A surface handed to :meth:`SplineEditor.from_surface` must reproduce from its
+#: free points to this relative accuracy (it must lie in the C1 spline space).
+FROM_SURFACE_RTOL = 1e-9
+
+
+class DependentPointError(InputError):
+    """The control point is computed by the propagation, not free; see ``controllers``."""
+
+    def __init__(self, message: str, point: int, controllers: np.ndarray) -> None:
+        super().__init__(message)
+        self.point = point
+        self.controllers = controllers
+
+
+class NotC1Error(InputError):
+    """A surface's control net is not in the C1 spline space of its triangulation."""
+
+
+@dataclass(frozen=True)
+class EditResult:
+    """What one edit (or one batch) changed.
+
+    Attributes
+    ----------
+    free_ids : (k,) int64, the free points moved (in call order)
+    old_free : (k, d) their previous positions (``editor.move(free_ids, old_free)`` undoes)
+    points : (m,) int64, sorted global control point ids recomputed
+    faces : (n,) int64, sorted patches containing any of them
+    ctrl : (n, 21, d) the new control points of those patches
+    """
+
+    free_ids: np.ndarray
+    old_free: np.ndarray
+    points: np.ndarray
+    faces: np.ndarray
+    ctrl: np.ndarray
+
+
+def _ranges(ptr: np.ndarray, rows: np.ndarray, local: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+    """Concatenated index ranges ``ptr[r]:ptr[r+1]`` of ``rows`` (``(n,)``), and with
+    ``local`` the position in ``rows`` each entry belongs to (``(n,)``)."""
+    starts = ptr[rows]
+    counts = ptr[rows + 1] - starts
+    ends = np.cumsum(counts)
+    idx = np.arange(int(ends[-1]) if rows.size else 0) + np.repeat(starts - (ends - counts), counts)
+    return idx, (np.repeat(np.arange(rows.size), counts) if local else None)
+
+
+class SplineEditor:
+    """Mutable editing state over an immutable :class:`SplineSpace`.
+
+    Parameters
+    ----------
+    space : SplineSpace
+    free : (n_free, d) float, the free points (copied)
+
+    Attributes
+    ----------
+    space : SplineSpace
+    free : (n_free, d) current free points (read-only view)
+    points : (n_points, d) current control points (read-only view); always equal to
+        ``space.M @ free``
+    """
+
+    def __init__(self, space: SplineSpace, free: np.ndarray) -> None:
+        free = np.array(free, dtype=np.float64)
+        if free.ndim != 2 or free.shape[0] != space.n_free:
+            raise InputError(f"free must have shape ({space.n_free}, d), got {free.shape}")
+        bad = np.flatnonzero(~np.isfinite(free).all(1))
+        if bad.size:
+            raise InputError(f"non-finite free points: {first_few(bad)}")
+        self.space = space
+        self._free = free
+        M = sp.csr_array(space.M)
+        M.sort_indices()
+        self._indptr = M.indptr.astype(np.int64)
+        self._indices = M.indices.astype(np.int64)
+        self._data = M.data
+        C = sp.csc_array(M)
+        C.sort_indices()
+        self._cptr = C.indptr.astype(np.int64)
+        self._crows = C.indices.astype(np.int64)
+        self._points = M @ free
+        # point -> faces incidence (CSR): faces containing each global point
+        pid = space.point_index.ravel()
+        order = np.argsort(pid, kind="stable")
+        self._pf_face = (order // space.point_index.shape[1]).astype(np.int64)
+        self._pf_ptr = np.concatenate([[0], np.cumsum(np.bincount(pid, minlength=space.n_points))]).astype(np.int64)
+        # global point -> free id (-1 for dependent points and for frames, which are no control points)
+        self._point_free = np.full(space.n_points, -1, np.int64)
+        is_pt = space.free_point >= 0
+        self._point_free[space.free_point[is_pt]] = np.flatnonzero(is_pt)
+
+    # --------------------------------------------------------------- factories
+    @classmethod
+    def from_fit(cls, result) -> "SplineEditor":
+        """Editor on a :class:`trispline.fit.FitResult` (uses its ``space`` and ``free``)."""
+        return cls(result.space, result.free)
+
+    @classmethod
+    def from_surface(cls, surface, space: SplineSpace | None = None, *, rtol: float = FROM_SURFACE_RTOL
+                     ) -> "SplineEditor":
+        """Editor on a :class:`SplineSurface` whose net is C1 (e.g. a loaded fit).
+
+        The free points are read off the net (:meth:`SplineSpace.free_from_points`);
+        the net must be reproduced from them to ``rtol`` of its size, else
+        :class:`NotC1Error` (a C0-only or foreign net cannot be edited locally).
+        """
+        from .propagation import build_space
+
+        if space is None:
+            space = build_space(surface.uv, surface.faces)
+        ctrl = np.asarray(surface.ctrl, np.float64)
+        if ctrl.shape[:2] != space.point_index.shape:
+            raise InputError(f"surface has ctrl {ctrl.shape}, the space expects {space.point_index.shape + (3,)}")
+        pts = np.zeros((space.n_points, ctrl.shape[-1]))
+        pts[space.point_index.reshape(-1)] = ctrl.reshape(-1, ctrl.shape[-1])
+        free = space.free_from_points(pts)
+        err = np.abs(space.control_points(free) - ctrl).max(axis=(1, 2))
+        scale = float(np.ptp(ctrl.reshape(-1, ctrl.shape[-1]), axis=0).max()) or 1.0
+        bad = np.flatnonzero(err > rtol * scale)
+        if bad.size:
+            raise NotC1Error(
+                f"the surface's control net is not in the C1 spline space of its domain: patches "
+                f"{first_few(bad)} differ from the propagated net by up to {err.max():.3g} "
+                f"(size {scale:.3g}, tolerance {rtol:g} relative)"
+            )
+        return cls(space, free)
+
+    # ------------------------------------------------------------------ state
+    @property
+    def free(self) -> np.ndarray:
+        v = self._free.view()
+        v.setflags(write=False)
+        return v
+
+    @property
+    def points(self) -> np.ndarray:
+        v = self._points.view()
+        v.setflags(write=False)
+        return v
+
+    @property
+    def ctrl(self) -> np.ndarray:
+        """``(F, 21, d)`` per-patch control points (a gather, ``O(F)``)."""
+        return self._points[self.space.point_index]
+
+    def patch_ctrl(self, faces: np.ndarray) -> np.ndarray:
+        """``(n, 21, d)`` control points of the patches ``faces``."""
+        return self._points[self.space.point_index[np.asarray(faces, np.int64)]]
+
+    def to_surface(self, **extras):
+        """An immutable :class:`SplineSurface` of the current state (``free`` in its extras)."""
+        from .surface import SplineSurface
+
+        t = self.space.tri
+        return SplineSurface(t.uv, t.faces, self.ctrl, extras=dict(free=self._free, **extras))
+
+    def rebuild_error(self) -> float:
+        """``max |points - M @ free|`` (0 up to rounding; a self-check)."""
+        return float(np.abs(self._points - self.space.M @ self._free).max(initial=0.0))
+
+    # ------------------------------------------------------ addressing by meaning
+    def corner_point(self, v: int) -> int:
+        """Free id of the corner point ``z_v`` (the interpolated data vertex ``v``)."""
+        return int(self.space.corner_free[self._vertex(v)])
+
+    def frame_points(self, v: int) -> np.ndarray:
+        """``(2,)`` free ids of the frame points ``h_v(v + d_v e_x / 5)``, ``h_v(v + d_v e_y / 5)``."""
+        return self.space.frame_free[self._vertex(v)].copy()
+
+    def inner_point(self, face: int, local_vertex: int) -> int:
+        """Free id of the near-corner inner point of ``face`` at its corner ``local_vertex``."""
+        f, k = self._face_local(face, local_vertex)
+        return self.point_free_id(int(self.space.layout.inner(f, k)), strict=True)
+
+    def flip_point(self, face: int, local_edge: int) -> int:
+        """Free id of ``face``'s flip point on the edge opposite its corner ``local_edge``."""
+        f, k = self._face_local(face, local_edge)
+        return self.point_free_id(int(self.space.layout.flip(f, k)), strict=True)
+
+    def mid_point(self, edge: int, end: int) -> int:
+        """Free id of edge ``edge``'s middle point nearer its end ``end`` (0: smaller vertex)."""
+        ne = self.space.tri.n_edges
+        if not (0 <= int(edge) < ne) or int(end) not in (0, 1):
+            raise InputError(f"edge must be in [0, {ne}) and end in (0, 1), got {edge}, {end}")
+        return self.point_free_id(int(self.space.layout.mid(int(edge), int(end))), strict=True)
+
+    def point_free_id(self, point: int, *, strict: bool = False) -> int:
+        """Free id of global control point ``point``; ``-1`` if it is dependent
+        (``strict=True``: raise :class:`DependentPointError` naming its controllers)."""
+        point = int(point)
+        if not 0 <= point < self.space.n_points:
+            raise InputError(f"control point id {point} outside [0, {self.space.n_points})")
+        j = int(self._point_free[point])
+        if j < 0 and strict:
+            raise self._dependent_error(point)
+        return j
+
+    def controllers(self, point: int) -> np.ndarray:
+        """Free ids whose positions determine control point ``point`` (nonzeros of row ``point`` of M)."""
+        point = int(point)
+        if not 0 <= point < self.space.n_points:
+            raise InputError(f"control point id {point} outside [0, {self.space.n_points})")
+        lo, hi = self._indptr[point], self._indptr[point + 1]
+        return self._indices[lo:hi][self._data[lo:hi] != 0].copy()
+
+    def describe_point(self, point: int) -> str:
+        """Human-readable name of global control point ``point``."""
+        lay, t = self.space.layout, self.space.tri
+        p = int(point)
+        if p < lay.star0:
+            return f"corner point of vertex {p}"
+        if p < lay.mid0:
+            e, end = divmod(p - lay.star0, 2)
+            a, b = t.edges[e, end], t.edges[e, 1 - end]
+            return f"star point of vertex {a} toward {b} (edge {e})"
+        if p < lay.inner0:
+            e, end = divmod(p - lay.mid0, 2)
+            a, b = t.edges[e, end], t.edges[e, 1 - end]
+            return f"middle point of edge {e} ({a}, {b}) nearer vertex {a}"
+        if p < lay.flip0:
+            f, k = divmod(p - lay.inner0, 3)
+            return f"near-corner inner point of face {f} at vertex {t.faces[f, k]}"
+        f, k = divmod(p - lay.flip0, 3)
+        a, b = t.faces[f, (k + 1) % 3], t.faces[f, (k + 2) % 3]
+        return f"flip point of face {f} on edge ({a}, {b})"
+
+    def describe_free(self, j: int) -> str:
+        """Human-readable name of free variable ``j``."""
+        j = self._free_ids(j)[0]
+        kind = int(self.space.free_kind[j])
+        if kind == KIND_FRAME:
+            v, which = divmod(int(j - self.space.frame_free[0, 0]), 2)
+            return f"free {j} (frame): frame point {'xy'[which]} of vertex {v}"
+        return f"free {j} ({KIND_NAMES[kind]}): {self.describe_point(int(self.space.free_point[j]))}"
+
+    # ------------------------------------------------------------------ edits
+    def move(self, free_ids, positions) -> EditResult:
+        """Move free points to new positions; recompute only what depends on them.
+
+        Parameters
+        ----------
+        free_ids : int or (k,) int, distinct free ids
+        positions : (d,) or (k, d) float
+
+        Returns
+        -------
+        EditResult
+        """
+        ids = self._free_ids(free_ids)
+        pos = np.asarray(positions, dtype=np.float64)
+        d = self._free.shape[1]
+        if pos.shape == (d,):
+            pos = pos[None, :]
+        if pos.shape != (ids.size, d):
+            raise InputError(f"positions must have shape ({ids.size}, {d}), got {pos.shape}")
+        if not np.isfinite(pos).all():
+            raise InputError(f"non-finite positions for free points {first_few(ids[~np.isfinite(pos).all(1)])}")
+        old = self._free[ids]
+        self._free[ids] = pos
+        rows = self._column_rows(ids)
+        self._recompute(rows)
+        faces = self._faces_of(rows)
+        return EditResult(ids, old, rows, faces, self._points[self.space.point_index[faces]])
+
+    def translate(self, free_ids, delta) -> EditResult:
+        """Move free points by ``delta`` ((d,) or (k, d))."""
+        ids = self._free_ids(free_ids)
+        return self.move(ids, self._free[ids] + np.asarray(delta, np.float64))
+
+    def move_point(self, point_ids, positions) -> EditResult:
+        """Move global control points that are free (corner, inner, flip, boundary points).
+
+        A dependent point raises :class:`DependentPointError` naming the free points that
+        control it. Frame points are no control points: move them with :meth:`move`
+        and :meth:`frame_points`.
+        """
+        pids = np.atleast_1d(np.asarray(point_ids))
+        ids = np.array([self.point_free_id(p, strict=True) for p in pids.ravel()], np.int64)
+        return self.move(ids if np.ndim(point_ids) else ids[0], positions)
+
+    def move_vertex(self, v: int, xyz, *, carry_frame: bool = True) -> EditResult:
+        """Re-interpolate a changed data vertex: move the corner point ``z_v`` to ``xyz``.
+
+        With ``carry_frame`` (default) the two frame points move by the same offset, so
+        the corner region (the tangent plane at ``v``) is translated, not tilted.
+        """
+        v = self._vertex(v)
+        xyz = np.asarray(xyz, np.float64)
+        if not carry_frame:
+            return self.move(self.space.corner_free[v], xyz)
+        ids = np.array([self.space.corner_free[v], *self.space.frame_free[v]], np.int64)
+        return self.move(ids, self._free[ids] + (xyz - self._free[ids[0]]))
+
+    # --------------------------------------------------------------- internals
+    def _vertex(self, v) -> int:
+        nv = self.space.tri.n_vertices
+        if not (np.ndim(v) == 0 and float(v) == int(v) and 0 <= int(v) < nv):
+            raise InputError(f"vertex must be an integer in [0, {nv}), got {v!r}")
+        return int(v)
+
+    def _face_local(self, face, k) -> tuple[int, int]:
+        nf = self.space.tri.n_faces
+        if not (np.ndim(face) == 0 and 0 <= int(face) < nf) or int(k) not in (0, 1, 2):
+            raise InputError(f"face must be in [0, {nf}) and the local index in (0, 1, 2), got {face}, {k}")
+        return int(face), int(k)
+
+    def _free_ids(self, free_ids) -> np.ndarray:
+        ids = np.atleast_1d(np.asarray(free_ids))
+        if ids.ndim != 1 or not (np.issubdtype(ids.dtype, np.integer) or ids.size == 0):
+            raise InputError(f"free ids must be an integer or a 1-D integer array, got {ids.dtype} {ids.shape}")
+        ids = ids.astype(np.int64, copy=False)
+        n = self.space.n_free
+        bad = np.flatnonzero((ids < 0) | (ids >= n))
+        if bad.size:
+            raise InputError(f"free ids outside [0, {n}): {first_few(ids[bad])}")
+        if ids.size > 1 and np.unique(ids).size != ids.size:
+            s = np.sort(ids)
+            raise InputError(f"free ids repeat in one edit: {first_few(np.unique(s[1:][s[1:] == s[:-1]]))}")
+        return ids
+
+    def _column_rows(self, ids: np.ndarray) -> np.ndarray:
+        if ids.size == 1:
+            j = ids[0]
+            return self._crows[self._cptr[j] : self._cptr[j + 1]]
+        idx, _ = _ranges(self._cptr, ids)
+        return np.unique(self._crows[idx])
+
+    def _recompute(self, rows: np.ndarray) -> None:
+        """``P[rows] = M[rows] @ free`` from the raw CSR arrays (rows of M are never empty)."""
+        if rows.size == 0:
+            return
+        idx, local = _ranges(self._indptr, rows, local=True)
+        vals = self._data[idx, None] * self._free[self._indices[idx]]
+        # bincount accumulates in entry order, like scipy's CSR product: bit-identical rows
+        m = rows.size
+        for c in range(vals.shape[1]):
+            self._points[rows, c] = np.bincount(local, vals[:, c], minlength=m)
+
+    def _faces_of(self, rows: np.ndarray) -> np.ndarray:
+        if rows.size == 0:
+            return np.zeros(0, np.int64)
+        idx, _ = _ranges(self._pf_ptr, rows)
+        return np.unique(self._pf_face[idx])
+
+    def _dependent_error(self, point: int) -> DependentPointError:
+        ctl = self.controllers(point)
+        names = "; ".join(self.describe_free(j) for j in ctl[:8])
+        more = f"; ... ({ctl.size} in all)" if ctl.size > 8 else ""
+        return DependentPointError(
+            f"control point {point} ({self.describe_point(point)}) is not free: the C1 propagation "
+            f"computes it from {ctl.size} free points: {names}{more}. Move one of those instead.",
+            point, ctl,
+        )
