@@ -9,7 +9,7 @@ partials. The thin-plate energy
 
 has ``G[i, j] = sum_abcd (g_a . g_c)(g_b . g_d) int_T D_ab B_i D_cd B_j``; the
 integrals over the triangle are ``area`` times constants (barycentric moments),
-computed once by a collapsed Gauss rule exact for degree 7.
+computed once by a collapsed Gauss rule exact for degree 6.
 
 The same quadrature gives the *residual* form used in the optimiser:
 ``r = sqrt(w_q area) [F_uu, sqrt(2) F_uv, F_vv]`` at the quadrature points, so
@@ -29,7 +29,7 @@ PAIRS = np.array([(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)])
 
 @lru_cache(maxsize=None)
 def triangle_quadrature(n: int = 4) -> tuple[np.ndarray, np.ndarray]:
-    """Collapsed (Duffy) Gauss--Legendre rule on the triangle, exact for degree ``2 n - 1``.
+    """Collapsed (Duffy) Gauss--Legendre rule on the triangle, exact for degree ``2 n - 2``.
 
     Returns
     -------

@@ -108,12 +108,25 @@ class LocalFit:
     hess : (nv, d, 2, 2) second partials
     scale : (nv,) the local length (mean distance to the 1-ring) used to scale the fit
     degree : (nv,) degree actually used at each vertex (lower where too few neighbours)
+    coef : (nv, m, d) coefficients of the scaled monomials (see :func:`_monomials`)
+    origin : (nv, 2) uv of each vertex
+    value : (nv, d) data at each vertex
     """
 
     grad: np.ndarray
     hess: np.ndarray
     scale: np.ndarray
     degree: np.ndarray
+    coef: np.ndarray
+    origin: np.ndarray
+    value: np.ndarray
+
+    def evaluate(self, vertex: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """Value of vertex ``vertex[i]``'s polynomial at ``points[i]``: ``(n, d)``."""
+        vertex = np.asarray(vertex, np.int64)
+        X = (np.asarray(points, float) - self.origin[vertex]) / self.scale[vertex, None]
+        A = _monomials(X[:, 0], X[:, 1], 3 if self.coef.shape[1] > 5 else 2)
+        return self.value[vertex] + np.einsum("nm,nmd->nd", A, self.coef[vertex])
 
 
 def local_polynomial_fit(
@@ -123,7 +136,7 @@ def local_polynomial_fit(
     *,
     degree: int = 3,
     rings: int = 3,
-    weight_power: float = 2.0,
+    weight_power: float = 4.0,
     ridge: float = 1e-12,
 ) -> LocalFit:
     """Weighted least-squares polynomial through each vertex's data, over its k-ring.
@@ -195,7 +208,7 @@ def local_polynomial_fit(
     huv = coef[:, 3, :]
     hvv = 2 * coef[:, 4, :]
     hess = np.stack([np.stack([huu, huv], -1), np.stack([huv, hvv], -1)], -2) / (s**2)[..., None, None]
-    return LocalFit(grad=grad, hess=hess, scale=scale, degree=used_deg)
+    return LocalFit(grad=grad, hess=hess, scale=scale, degree=used_deg, coef=coef, origin=uv, value=vals)
 
 
 def fitted_normals(fit: LocalFit, reference: np.ndarray | None = None) -> np.ndarray:
