@@ -342,7 +342,9 @@ class SplineEditor:
         if not carry_frame:
             return self.move(self.space.corner_free[v], xyz)
         ids = np.array([self.space.corner_free[v], *self.space.frame_free[v]], np.int64)
-        return self.move(ids, self._free[ids] + (xyz - self._free[ids[0]]))
+        pos = self._free[ids] + (xyz - self._free[ids[0]])
+        pos[0] = xyz  # exactly the new data vertex
+        return self.move(ids, pos)
 
     # --------------------------------------------------------------- internals
     def _vertex(self, v) -> int:
