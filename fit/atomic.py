@@ -48,6 +48,16 @@ def _temp_for(path: Path) -> Path:
     return Path(tmp)
 
 
+def _file_mode(target: Path) -> int:
+    """Permissions for a new output: the target's if it exists, else 0o666 minus the umask."""
+    try:
+        return target.stat().st_mode & 0o7777
+    except OSError:
+        mask = os.umask(0)
+        os.umask(mask)
+        return 0o666 & ~mask
+
+
 def _unlink_quietly(path: Path) -> None:
     try:
         os.unlink(path)
@@ -84,6 +94,7 @@ class AtomicOutputs:
         done = []
         try:
             for target, tmp in self._pending:
+                os.chmod(tmp, _file_mode(target))  # mkstemp creates 0o600
                 os.replace(tmp, target)
                 done.append(target)
         except OSError as exc:
