@@ -124,13 +124,14 @@ class SplineEditor:
         self._free = free
         M = sp.csr_array(space.M)
         M.sort_indices()
-        self._indptr = M.indptr.astype(np.int64)
-        self._indices = M.indices.astype(np.int64)
+        # index arrays keep scipy's dtype (int32 up to 2^31 nonzeros): half the memory at 1M faces
+        self._indptr = M.indptr
+        self._indices = M.indices
         self._data = M.data
         C = sp.csc_array(M)
         C.sort_indices()
-        self._cptr = C.indptr.astype(np.int64)
-        self._crows = C.indices.astype(np.int64)
+        self._cptr = C.indptr
+        self._crows = C.indices
         self._points = M @ free
         # point -> faces incidence (CSR): faces containing each global point
         pid = space.point_index.ravel()
@@ -376,9 +377,9 @@ class SplineEditor:
     def _column_rows(self, ids: np.ndarray) -> np.ndarray:
         if ids.size == 1:
             j = ids[0]
-            return self._crows[self._cptr[j] : self._cptr[j + 1]]
+            return self._crows[self._cptr[j] : self._cptr[j + 1]].astype(np.int64)
         idx, _ = _ranges(self._cptr, ids)
-        return np.unique(self._crows[idx])
+        return np.unique(self._crows[idx]).astype(np.int64, copy=False)
 
     def _recompute(self, rows: np.ndarray) -> None:
         """``P[rows] = M[rows] @ free`` from the raw CSR arrays (rows of M are never empty)."""
