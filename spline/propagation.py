@@ -26,6 +26,7 @@ dimension of the spline space there. Every surface ``M @ free`` is exactly C1.
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -171,6 +172,109 @@ class SplineSpace:
         return out
 
 
+def _cat(parts: list[np.ndarray], dtype=None) -> np.ndarray:
+    return np.concatenate(parts) if parts else np.zeros(0, dtype or np.float64)
+
+
+def _ragged_gather(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions of all entries of CSR ``rows`` and the index of the row each came from."""
+    start = indptr[rows]
+    length = indptr[rows + 1] - start
+    owner = np.repeat(np.arange(rows.size), length)
+    offs = np.arange(owner.size) - np.repeat(np.cumsum(length) - length, length)
+    return start[owner] + offs, owner
+
+
+def _compose(lay: NetLayout, nv: int, edges: np.ndarray, UV: np.ndarray, frame_scale: np.ndarray,
+             free_of_point: np.ndarray, n_free: int, fast: dict, slow: tuple, flips: dict) -> sp.csr_array:
+    """Write ``M`` straight into CSR arrays, class by class.
+
+    Every point's row length is known before any value is written: 1 for free
+    points, 3 for stars (affine in their vertex's frame), 5 for middle points of
+    the fast path (two inner points and a star), the reduced row for points of an
+    eliminated vertex system, and ``1 + len(mid_r) + len(mid_s)`` for computed
+    flips. Flips have the highest ids and depend only on earlier rows, so they
+    are gathered from the rows already written. No COO sort, no sparse products.
+    """
+    npts = lay.n_points
+    ne = edges.shape[0]
+    star_s = np.empty(2 * ne, np.int64)
+    star_s[0::2], star_s[1::2] = edges[:, 0], edges[:, 1]
+    star_w = np.empty(2 * ne, np.int64)
+    star_w[0::2], star_w[1::2] = edges[:, 1], edges[:, 0]
+    ab = (UV[star_w] - UV[star_s]) / frame_scale[star_s, None]
+    star_cols = np.column_stack([star_s, nv + 2 * star_s, nv + 2 * star_s + 1])
+    star_vals = np.column_stack([1.0 - ab[:, 0] - ab[:, 1], ab[:, 0], ab[:, 1]])
+
+    # points of eliminated vertex systems: expand star references into frames
+    rows, cols, vals = (_cat(x, np.int64 if k < 2 else None) for k, x in enumerate(slow))
+    is_star = (cols >= lay.star0) & (cols < lay.mid0)
+    k = cols[is_star] - lay.star0
+    s_rows = np.concatenate([rows[~is_star], np.repeat(rows[is_star], 3)])
+    s_cols = np.concatenate([free_of_point[cols[~is_star]], star_cols[k].ravel()])
+    s_vals = np.concatenate([vals[~is_star], (vals[is_star, None] * star_vals[k]).ravel()])
+    if (s_cols < 0).any():  # pragma: no cover - internal consistency
+        raise AssertionError("an eliminated point references a dependent point")
+    s_ids, s_local = np.unique(s_rows, return_inverse=True)
+    S = sp.csr_array((s_vals, (s_local, s_cols)), shape=(s_ids.size, n_free))
+    S.sum_duplicates()
+
+    length = np.zeros(npts, np.int64)
+    free_pts = np.flatnonzero(free_of_point >= 0)
+    length[free_pts] = 1
+    length[lay.star0 : lay.mid0] = 3
+    length[fast["rows"]] = 5
+    length[s_ids] = np.diff(S.indptr)
+    length[flips["rows"]] = 1 + length[flips["mid_r"]] + length[flips["mid_s"]]
+    indptr = np.zeros(npts + 1, np.int64)
+    np.cumsum(length, out=indptr[1:])
+    nnz = int(indptr[-1])
+    idx_t = np.int32 if max(nnz, n_free) < 2**31 - 1 else np.int64
+    data = np.empty(nnz)
+    indices = np.empty(nnz, idx_t)
+
+    def put_fixed(row_ids, c, v):
+        dest = indptr[row_ids][:, None] + np.arange(c.shape[1])
+        data[dest] = v
+        indices[dest] = c
+
+    # corners and stars occupy the first ids with fixed lengths 1 and 3: one contiguous block
+    head = indptr[lay.mid0]
+    data[:nv] = 1.0
+    indices[:nv] = np.arange(nv)
+    data[nv:head] = star_vals.ravel()
+    indices[nv:head] = star_cols.ravel()
+    rest = free_pts[free_pts >= lay.mid0]
+    dest = indptr[rest]
+    data[dest] = 1.0
+    indices[dest] = free_of_point[rest]
+    ks = fast["star"] - lay.star0
+    w = fast["w"]
+    put_fixed(
+        fast["rows"],
+        np.column_stack([free_of_point[fast["inner_q"]], free_of_point[fast["inner_p"]], star_cols[ks]]),
+        np.column_stack([w[:, 0], w[:, 1], w[:, 2, None] * star_vals[ks]]),
+    )
+    pos, owner = _ragged_gather(S.indptr, np.arange(s_ids.size))
+    dest = indptr[s_ids][owner] + (pos - S.indptr[owner])
+    data[dest] = S.data[pos]
+    indices[dest] = S.indices[pos]
+    # flips: w_other * other + w_r * row(mid_r) + w_s * row(mid_s)
+    fr, fw = flips["rows"], flips["w"]
+    put_fixed(fr, free_of_point[flips["other"], None], fw[:, :1])
+    offset = 1 + np.zeros(fr.size, np.int64)
+    for mid, wk in ((flips["mid_r"], fw[:, 1]), (flips["mid_s"], fw[:, 2])):
+        pos, owner = _ragged_gather(indptr, mid)
+        dest = indptr[fr][owner] + offset[owner] + (pos - indptr[mid][owner])
+        data[dest] = wk[owner] * data[pos]
+        indices[dest] = indices[pos]
+        offset += length[mid]
+    M = sp.csr_array((data, indices, indptr.astype(idx_t)), shape=(npts, n_free))
+    M.sort_indices()
+    M.eliminate_zeros()
+    return M
+
+
 def _rank_within(keys: np.ndarray, n_groups: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Stable order by ``keys``, each element's rank inside its group, and group counts."""
     order = np.argsort(keys, kind="stable")
@@ -244,7 +348,17 @@ def build_space(
     -------
     SplineSpace
     """
+    clock = [time.perf_counter()]
+    timings: dict[str, float] = {}
+
+    def tick(name: str) -> None:
+        now = time.perf_counter()
+        timings[name] = timings.get(name, 0.0) + now - clock[0]
+        clock[0] = now
+
     tri = uv if isinstance(uv, Triangulation) else Triangulation(uv, faces)
+    _ = tri.edges, tri.edge_faces
+    tick("triangulation")
     lay = layout_of(tri)
     F, UV = tri.faces, tri.uv
     nv, ne, nf = tri.n_vertices, tri.n_edges, tri.n_faces
@@ -275,6 +389,7 @@ def build_space(
     pp, qq = np.concatenate([p, p]), np.concatenate([q, q])
     coef = diamond_coefficients(UV[pp], UV[qq], UV[eq_r], UV[eq_s])  # (q, p, r, s)
 
+    tick("diamonds")
     # ---- local numbering: corners and equations per vertex
     corner_v = F.ravel()
     _, corner_rank, n_c = _rank_within(corner_v, nv)
@@ -282,22 +397,8 @@ def build_space(
     col_p = corner_rank[3 * eq_fp + eq_kp]
     col_q = corner_rank[3 * eq_fq + eq_kq]
 
-    R_rows, R_cols, R_vals = [], [], []  # point <- free variable
     D_rows, D_cols, D_vals = [], [], []  # point <- point
     free_pts = []  # global ids of free control points (besides corners)
-
-    # frames: free variable ids 0..V-1 corners, V + 2v + {0,1} frames
-    R_rows.append(np.arange(nv))
-    R_cols.append(np.arange(nv))
-    R_vals.append(np.ones(nv))
-    for end in (0, 1):
-        s_v = edges[:, end]
-        w_v = edges[:, 1 - end]
-        al = (UV[w_v] - UV[s_v]) / frame_scale[s_v, None]
-        star = lay.star(np.arange(ne), end)
-        R_rows += [star, star, star]
-        R_cols += [s_v, nv + 2 * s_v, nv + 2 * s_v + 1]
-        R_vals += [1.0 - al[:, 0] - al[:, 1], al[:, 0], al[:, 1]]
 
     max_coef = 0.0
     # ---- per-vertex systems. Fast path: where every equation's middle-point
@@ -308,18 +409,22 @@ def build_space(
     bad_v = np.zeros(nv, bool)
     bad_v[eq_s[~good_eq]] = True
     fast = ~bad_v[eq_s]
-    if fast.any():
-        i = np.flatnonzero(fast)
-        dep = lay.mid(eq_e[i], eq_end[i])
-        cr = coef[i, 2]
-        D_rows += [dep, dep, dep]
-        D_cols += [lay.inner(eq_fq[i], eq_kq[i]), lay.inner(eq_fp[i], eq_kp[i]), lay.star(eq_e[i], eq_end[i])]
-        D_vals += [-coef[i, 0] / cr, -coef[i, 1] / cr, -coef[i, 3] / cr]
-        max_coef = max(max_coef, float(np.abs(coef[i][:, [0, 1, 3]] / cr[:, None]).max()))
+    i = np.flatnonzero(fast)
+    cr = coef[i, 2]
+    fast_rec = dict(
+        rows=lay.mid(eq_e[i], eq_end[i]),
+        inner_q=lay.inner(eq_fq[i], eq_kq[i]),
+        inner_p=lay.inner(eq_fp[i], eq_kp[i]),
+        star=lay.star(eq_e[i], eq_end[i]),
+        w=-coef[i][:, [0, 1, 3]] / cr[:, None],  # weights of (inner_q, inner_p, star)
+    )
+    if i.size:
+        max_coef = max(max_coef, float(np.abs(fast_rec["w"]).max()))
     # all inner points at fast-path vertices are free
     corner_fast = ~bad_v[corner_v]
     free_pts.append(lay.inner0 + np.flatnonzero(corner_fast))
 
+    tick("fast_path")
     # slow path: batched elimination, grouped by system shape
     singular = []
     shape_key = np.where(bad_v, n_c * (n_e.max(initial=0) + 1) + n_e, -1)
@@ -371,7 +476,7 @@ def build_space(
         if Ar.size:
             max_coef = max(max_coef, float(np.abs(Ar).max()), float(np.abs(Kr).max()))
     n_vertex_systems = int(bad_v.sum())
-    stage2 = len(D_rows)
+    tick("elimination")
 
     # ---- boundary edges: both middle points and the face's flip are free
     be = tri.boundary_edges
@@ -389,45 +494,20 @@ def build_space(
     c_dep = np.where(q_dep, c2[:, 0], c2[:, 1])
     c_oth = np.where(q_dep, c2[:, 1], c2[:, 0])
     free_pts.append(other)
-    D_rows += [dep, dep, dep]
-    D_cols += [other, mid_r, mid_s]
-    D_vals += [-c_oth / c_dep, -c2[:, 2] / c_dep, -c2[:, 3] / c_dep]
+    flip_rec = dict(rows=dep, other=other, mid_r=mid_r, mid_s=mid_s,
+                    w=np.column_stack([-c_oth / c_dep, -c2[:, 2] / c_dep, -c2[:, 3] / c_dep]))
     if ie.size:
-        max_coef = max(max_coef, float(np.abs(np.concatenate(D_vals[-3:])).max()))
-
+        max_coef = max(max_coef, float(np.abs(flip_rec["w"]).max()))
+    tick("flips")
     # ---- free variables
     free_pts = np.sort(np.concatenate(free_pts)) if free_pts else np.zeros(0, np.int64)
     n_free = 3 * nv + free_pts.size
-    free_id = np.arange(3 * nv, n_free)
-    R_rows.append(free_pts)
-    R_cols.append(free_id)
-    R_vals.append(np.ones(free_pts.size))
-    R = sp.csr_array(
-        (np.concatenate(R_vals), (np.concatenate(R_rows), np.concatenate(R_cols))), shape=(npts, n_free)
-    )
+    free_of_point = np.full(npts, -1, np.int64)
+    free_of_point[:nv] = np.arange(nv)
+    free_of_point[free_pts] = np.arange(3 * nv, n_free)
+    M = _compose(lay, nv, edges, UV, frame_scale, free_of_point, n_free, fast_rec, (D_rows, D_cols, D_vals), flip_rec)
 
-    def _coo(rows, cols, vals, shape):
-        if not rows:
-            return sp.csr_array(shape)
-        return sp.csr_array((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=shape)
-
-    # Level by level: middle / inner points from stars and free points, then flips
-    # from middle points and free flips. The levels' row sets are disjoint.
-    # Each level is one sparse product with (identity on the other rows + dependencies):
-    # P = (I_other + D3) (I_other + D2) R x.
-    def _level(rows, cols, vals):
-        dep = np.zeros(npts, bool)
-        r = np.concatenate(rows) if rows else np.zeros(0, np.int64)
-        dep[r] = True
-        keep = np.flatnonzero(~dep)
-        return _coo(list(rows) + [keep], list(cols) + [keep], list(vals) + [np.ones(keep.size)], (npts, npts))
-
-    L2 = _level(D_rows[:stage2], D_cols[:stage2], D_vals[:stage2])
-    L3 = _level(D_rows[stage2:], D_cols[stage2:], D_vals[stage2:])
-    M = (L3 @ (L2 @ R)).tocsr()
-    M.sum_duplicates()
-    M.eliminate_zeros()
-
+    tick("compose")
     free_kind = np.empty(n_free, np.int8)
     free_kind[:nv] = KIND_CORNER
     free_kind[nv : 3 * nv] = KIND_FRAME
@@ -439,11 +519,13 @@ def build_space(
     free_point = np.concatenate([np.arange(nv), np.full(2 * nv, -1, np.int64), free_pts])
     frame_free = nv + 2 * np.arange(nv)[:, None] + np.arange(2)[None, :]
     sing = np.sort(np.concatenate(singular)) if singular else np.zeros(0, np.int64)
+    pidx = point_index(tri)
+    tick("point_index")
     return SplineSpace(
         tri=tri,
         layout=lay,
         M=M,
-        point_index=point_index(tri),
+        point_index=pidx,
         corner_free=np.arange(nv),
         frame_free=frame_free,
         frame_scale=frame_scale,
@@ -451,5 +533,5 @@ def build_space(
         free_point=free_point,
         singular_vertices=sing,
         stats=dict(max_coefficient=float(np.abs(M.data).max(initial=0.0)), max_elimination_coefficient=max_coef,
-                   nnz=int(M.nnz), eliminated_vertices=n_vertex_systems),
+                   nnz=int(M.nnz), eliminated_vertices=n_vertex_systems, timings=timings),
     )

@@ -1,0 +1,77 @@
+"""Build the propagation map M and propagate, at 10k / 100k / 1M faces.
+
+Target (issue 2): 1M faces in under 5 s and 6 GB on a 2-core machine, cost
+linear in size. Each size runs in a fresh subprocess so its peak resident
+memory (ru_maxrss of the child) is measured on its own.
+
+    python benchmarks/bench_spline.py [--sizes 10000 100000 1000000] [--kind perturbed|alternate|delaunay]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+
+CHILD = r"""
+import json, sys, time
+import numpy as np
+from trispline.spline import domains
+from trispline.spline.topology import Triangulation
+from trispline.spline.propagation import build_space
+from trispline.spline.continuity import continuity_report
+n_faces, kind = int(sys.argv[1]), sys.argv[2]
+if kind == "delaunay":
+    uv, f = domains.random_delaunay(n_faces // 2, seed=0)
+else:
+    n = max(2, int(round((n_faces / 2) ** 0.5)))
+    uv, f = domains.grid(n, diagonal="regular" if kind == "perturbed" else "alternate")
+    if kind == "perturbed":
+        uv = domains.perturb(uv, f, 0.25, seed=0)
+t0 = time.perf_counter()
+tri = Triangulation(uv, f)
+_ = tri.edges, tri.fan_ptr
+t1 = time.perf_counter()
+space = build_space(tri)
+t2 = time.perf_counter()
+free = np.random.default_rng(0).normal(size=(space.n_free, 3))
+ctrl = space.control_points(free)
+t3 = time.perf_counter()
+rep = continuity_report(tri, ctrl) if len(f) <= 200_000 else {"c1_relative": float("nan")}
+print(json.dumps(dict(faces=len(f), topo=t1 - t0, build=t2 - t1, propagate=t3 - t2,
+                      nnz=space.M.nnz, n_free=space.n_free, singular=space.n_singular,
+                      eliminated=space.stats["eliminated_vertices"], c1=rep["c1_relative"])))
+"""
+
+
+def run(n_faces: int, kind: str) -> dict:
+    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    out = subprocess.run([sys.executable, "-c", CHILD, str(n_faces), kind], check=True, capture_output=True, text=True)
+    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    rec = json.loads(out.stdout.strip().splitlines()[-1])
+    rec["peak_gb"] = max(peak, before) / 2**20  # ru_maxrss is in KiB on Linux
+    return rec
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--sizes", type=int, nargs="+", default=[10_000, 100_000, 1_000_000])
+    ap.add_argument("--kind", default="perturbed", choices=["perturbed", "alternate", "delaunay"])
+    args = ap.parse_args()
+    print(f"# build M + propagate ({args.kind} triangulations); peak RSS per child process")
+    hdr = f"{'faces':>9} {'topology s':>10} {'build M s':>10} {'propagate s':>11} {'total s':>8} {'us/face':>8} {'nnz(M)':>11} {'singular':>8} {'elim.v':>7} {'C1 rel':>8} {'peak GB':>8}"
+    print(hdr)
+    print("-" * len(hdr))
+    for n in args.sizes:
+        r = run(n, args.kind)
+        total = r["topo"] + r["build"] + r["propagate"]
+        print(f"{r['faces']:>9} {r['topo']:>10.2f} {r['build']:>10.2f} {r['propagate']:>11.2f} {total:>8.2f} "
+              f"{1e6 * total / r['faces']:>8.2f} {r['nnz']:>11} {r['singular']:>8} {r['eliminated']:>7} "
+              f"{r['c1']:>8.1e} {r['peak_gb']:>8.2f}")
+    print("target: 1M faces under 5 s total and 6 GB; us/face flat (linear cost)")
+
+
+if __name__ == "__main__":
+    main()
