@@ -21,7 +21,7 @@ Terms (weights in :class:`trispline.fit.fitting.FitWeights`):
     cross-boundary derivatives along the edges): residual ``(P - target) / h_f``.
 ``data``
     Extra sample points ``(face, bary) -> xyz``: residual
-    ``(F(face, bary) - xyz) / sqrt(domain area)``.
+    ``(F(face, bary) - xyz) / h`` with ``h^2 = domain area / n_vertices``.
 ``angle`` (nonlinear)
     ``unit(t_u x t_v) - n_v`` for the frame vectors ``t_u, t_v`` of each vertex and
     a data normal ``n_v``, scaled by the data's slope scale.

@@ -357,7 +357,7 @@ def _setup(V: np.ndarray, space: SplineSpace, w: FitWeights, data_points,
     # data term
     if data_points is not None:
         dp = _data_points(data_points, nf)
-        dscale = np.full(dp.face.size, np.sqrt(w.data / tri.areas.sum()))
+        dscale = np.full(dp.face.size, np.sqrt(w.data * nv / tri.areas.sum()))
         dbasis = basis(dp.bary)
         dface, dtarget = dp.face, (dp.xyz - centre) / size
     else:
@@ -414,13 +414,19 @@ def _solve(prob: _Problem, factor: SparseCholesky, w: FitWeights, solver, max_st
     # start from the quadratic terms' optimum (one host solve); for a quadratic energy
     # Gauss--Newton then confirms stationarity in its first step
     x0 = jnp.zeros((n, 3))
+    if prob.nonlinear:
+        # start the nonlinear solve from the quadratic terms' optimum (one host solve)
+        lin_args = dict(prob.args, angle_scale=jnp.zeros_like(prob.args["angle_scale"]))
+        r0, vjp = jax.vjp(lambda y: en.residuals(y, lin_args), x0)
+        x0 = jnp.asarray(-factor.solve(np.asarray(vjp(r0)[0])))
     sol = optx.least_squares(en.residuals, solver, x0, prob.args, max_steps=max_steps, throw=False)
     x = sol.value
     steps = int(sol.stats["num_steps"])
     ok = sol.result == optx.RESULTS.successful
     # independent stationarity check: |J^T r| small relative to the terms' scale
     g = jax.grad(lambda y: 0.5 * sum(jnp.sum(r * r) for r in en.residuals(y, prob.args).values()))(x)
-    g_ref = jax.grad(lambda y: 0.5 * sum(jnp.sum(r * r) for r in en.residuals(y, prob.args).values()))(x0)
+    g_ref = jax.grad(lambda y: 0.5 * sum(jnp.sum(r * r) for r in en.residuals(y, prob.args).values()))(
+        jnp.zeros((n, 3)))
     gnorm = float(jnp.abs(g).max())
     gref = float(jnp.abs(g_ref).max()) or 1.0
     ok = bool(ok) and gnorm <= CONVERGED_GRAD_RTOL * gref
