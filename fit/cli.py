@@ -37,7 +37,7 @@ import numpy as np
 
 from trispline.spline.errors import InputError
 
-__all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILURE", "EXIT_INPUT", "EXIT_CHECK", "UsageError"]
+__all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILURE", "EXIT_INPUT", "EXIT_CHECK", "UsageError", "WEIGHT_FIELDS", "mesh_report", "surface_report"]
 
 EXIT_OK = 0
 EXIT_FAILURE = 1
@@ -181,10 +181,13 @@ def _nonneg_float(text: str) -> float:
     return v
 
 
-def _weight_fields() -> list[dataclasses.Field]:
-    from .fitting import FitWeights
-
-    return list(dataclasses.fields(FitWeights))
+#: One flag per :class:`~trispline.fit.fitting.FitWeights` field (name, type). Listed here
+#: rather than read from the dataclass so that the parser does not import JAX (2 s);
+#: tests/test_cli.py checks that this table matches ``dataclasses.fields(FitWeights)``.
+WEIGHT_FIELDS: tuple[tuple[str, type], ...] = (
+    ("bend", float), ("tilt", float), ("local", float), ("data", float), ("angle", float),
+    ("fit_degree", int), ("fit_rings", int), ("blend_power", float),
+)
 
 
 def _add_common(p: argparse.ArgumentParser) -> None:
@@ -195,7 +198,7 @@ def _add_common(p: argparse.ArgumentParser) -> None:
                    help="show the full traceback of internal failures")
 
 
-def _add_fit_options(p: argparse.ArgumentParser, with_weights: bool) -> None:
+def _add_fit_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--param", choices=("harmonic", "lscm", "uv"), default="harmonic",
                    help="parameterization: harmonic (disk, default), lscm (free boundary), "
                         "uv (the OBJ's texture coordinates, or x, y of a height field)")
@@ -208,19 +211,15 @@ def _add_fit_options(p: argparse.ArgumentParser, with_weights: bool) -> None:
     p.add_argument("--mesh-out", metavar="FILE", help="also write the tessellated surface (.obj .ply .stl .glb)")
     p.add_argument("--image", metavar="PNG", help="also render a picture of the surface (.png)")
     p.add_argument("--control-net", metavar="FILE", help="also write the control net as a mesh (.obj .ply .stl .glb)")
-    g = p.add_argument_group("fairness weights (see docs/fit.md)")
-    if with_weights:
-        for f in _weight_fields():
-            kind = type(f.default)
-            conv = _positive_int if kind is int else _nonneg_float
-            g.add_argument(f"--{f.name.replace('_', '-')}", dest=f"w_{f.name}", type=conv, default=None,
-                           metavar="W" if kind is float else "N", help=f"FitWeights.{f.name} (default {f.default})")
+    g = p.add_argument_group("fairness weights (FitWeights fields; defaults and meaning in docs/fit.md)")
+    for name, kind in WEIGHT_FIELDS:
+        conv = _positive_int if kind is int else _nonneg_float
+        g.add_argument(f"--{name.replace('_', '-')}", dest=f"w_{name}", type=conv, default=None,
+                       metavar="N" if kind is int else "W", help=f"FitWeights.{name}")
 
 
-def build_parser(command: str | None = None) -> argparse.ArgumentParser:
-    """The argument parser. The fairness-weight flags (read from ``FitWeights``, which
-    imports JAX) are added only when ``command`` is ``fit`` or ``demo``."""
-    with_weights = command in ("fit", "demo")
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``trispline`` (imports nothing heavy)."""
     parser = _Parser(
         prog=PROG,
         description="Fit exactly C1 quintic triangular spline surfaces to open triangle meshes.",
@@ -239,7 +238,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     p.add_argument("--example-faces", type=_positive_int, default=EXAMPLE_FACES,
                    help=f"triangles of the built-in scan (default {EXAMPLE_FACES})")
     p.add_argument("-o", "--output", required=True, metavar="SURFACE", help="surface file to write (.npz or .json)")
-    _add_fit_options(p, with_weights)
+    _add_fit_options(p)
     _add_common(p)
     p.set_defaults(func=cmd_fit)
 
@@ -250,7 +249,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                    help="folder for the results (created; default trispline-demo)")
     p.add_argument("--example-faces", type=_positive_int, default=EXAMPLE_FACES,
                    help=f"triangles of the built-in scan (default {EXAMPLE_FACES})")
-    _add_fit_options(p, with_weights)
+    _add_fit_options(p)
     _add_common(p)
     p.set_defaults(func=cmd_demo, mesh=None, example=True)
 
@@ -383,8 +382,8 @@ def _fit(args: argparse.Namespace, ui: _UI, outputs: dict[str, Path | None],
         from .fitting import FitWeights, fit_surface
 
         bar.done()
-        given = {f.name: getattr(args, f"w_{f.name}") for f in _weight_fields()
-                 if getattr(args, f"w_{f.name}", None) is not None}
+        given = {name: getattr(args, f"w_{name}") for name, _ in WEIGHT_FIELDS
+                 if getattr(args, f"w_{name}", None) is not None}
         weights = FitWeights(**given)
         t0 = time.perf_counter()
         result = fit_surface(V, F, uv=uv, param=args.param, weights=weights, max_steps=args.max_steps,
@@ -700,13 +699,6 @@ def cmd_info(args: argparse.Namespace, ui: _UI) -> int:
 
 
 # ============================================================================ main
-def _command_of(argv: Sequence[str]) -> str | None:
-    for a in argv:
-        if not a.startswith("-"):
-            return a
-    return None
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code (see the module docstring)."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -725,7 +717,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             warnings.showwarning = show
             try:
-                args = build_parser(_command_of(argv)).parse_args(argv)
+                args = build_parser().parse_args(argv)
                 ui.json, ui.quiet = bool(getattr(args, "json", False)), bool(getattr(args, "quiet", False))
                 return int(args.func(args, ui))
             finally:

@@ -10,8 +10,10 @@ Meshes are the watertight tessellation of :func:`trispline.spline.tessellate.tes
 (neighbouring patches share their boundary samples, so there are no cracks along
 patch boundaries; vertex ``v`` of the mesh is the corner point of domain vertex
 ``v``) with its analytic unit normals, written through trimesh with
-``process=False`` so nothing is merged or reordered. STL stores face normals only
-and one copy of each corner per triangle (a format limitation). Every file is
+``process=False`` so nothing is merged or reordered (PLY is written here, binary
+in double precision; trimesh would store float32). GLB and STL store float32 by
+specification; STL stores face normals only and one copy of each corner per
+triangle. Every file is
 written atomically (:mod:`trispline.fit.atomic`).
 """
 from __future__ import annotations
@@ -145,12 +147,36 @@ def control_net_mesh(surface: "SplineSurface") -> "trimesh.Trimesh":
 
 
 # ------------------------------------------------------------------------ writers
+def _write_ply(vertices: np.ndarray, triangles: np.ndarray, normals: np.ndarray | None, tmp: Path) -> None:
+    """Binary little-endian PLY in double precision (trimesh's writer stores float32)."""
+    fields = [("xyz", "<f8", (3,))] + ([("n", "<f8", (3,))] if normals is not None else [])
+    vert = np.empty(vertices.shape[0], dtype=fields)
+    vert["xyz"] = vertices
+    if normals is not None:
+        vert["n"] = normals
+    face = np.empty(triangles.shape[0], dtype=[("count", "u1"), ("index", "<i4", (3,))])
+    face["count"] = 3
+    face["index"] = triangles
+    header = ["ply", "format binary_little_endian 1.0", "comment trispline tessellation",
+              f"element vertex {vertices.shape[0]}", "property double x", "property double y",
+              "property double z"]
+    if normals is not None:
+        header += ["property double nx", "property double ny", "property double nz"]
+    header += [f"element face {triangles.shape[0]}", "property list uchar int vertex_indices", "end_header"]
+    with open(tmp, "wb") as fh:
+        fh.write(("\n".join(header) + "\n").encode("ascii"))
+        fh.write(vert.tobytes())
+        fh.write(face.tobytes())
+
+
 def _write_mesh(mesh: "trimesh.Trimesh", tmp: Path, suffix: str, normals: bool) -> None:
     kind = suffix[1:]
+    if kind == "ply":
+        _write_ply(np.asarray(mesh.vertices), np.asarray(mesh.faces),
+                   np.asarray(mesh.vertex_normals) if normals else None, tmp)
+        return
     if kind == "obj":
         kw: dict[str, Any] = dict(include_normals=normals, digits=15)
-    elif kind == "ply":
-        kw = dict(vertex_normal=normals, encoding="binary")
     elif kind == "glb":
         kw = dict(include_normals=normals)
     else:
