@@ -32,7 +32,7 @@ def _frozen(a: np.ndarray) -> np.ndarray:
     return a
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class SplineSurface:
     """A C0/C1 quintic triangular spline surface over a planar triangulation.
 
@@ -61,6 +61,12 @@ class SplineSurface:
             ext[str(k)] = _frozen(v) if isinstance(v, np.ndarray) else v
         object.__setattr__(self, "extras", MappingProxyType(ext))
         _ = self.triangulation  # validate the domain now
+
+    def __repr__(self) -> str:
+        lo, hi = self.ctrl.reshape(-1, 3).min(0), self.ctrl.reshape(-1, 3).max(0)
+        extra = f", extras={sorted(self.extras)}" if self.extras else ""
+        return (f"SplineSurface({self.n_faces} quintic patches over {self.n_vertices} domain vertices, "
+                f"bounds {np.round(lo, 4).tolist()}..{np.round(hi, 4).tolist()}{extra})")
 
     # ------------------------------------------------------------ derived
     @cached_property
