@@ -249,13 +249,62 @@ class SplineEditor:
             raise self._dependent_error(point)
         return j
 
-    def controllers(self, point: int) -> np.ndarray:
-        """Free ids whose positions determine control point ``point`` (nonzeros of row ``point`` of M)."""
-        point = int(point)
-        if not 0 <= point < self.space.n_points:
-            raise InputError(f"control point id {point} outside [0, {self.space.n_points})")
-        lo, hi = self._indptr[point], self._indptr[point + 1]
-        return self._indices[lo:hi][self._data[lo:hi] != 0].copy()
+    def controllers(self, points) -> np.ndarray:
+        """Sorted free ids whose positions determine control point(s) ``points`` (int or
+        ``(k,)``): the nonzero columns of those rows of M."""
+        pts = np.atleast_1d(np.asarray(points)).astype(np.int64)
+        bad = pts[(pts < 0) | (pts >= self.space.n_points)]
+        if bad.size:
+            raise InputError(f"control point id {first_few(bad)} outside [0, {self.space.n_points})")
+        idx, _ = _ranges(self._indptr, pts)
+        return np.unique(self._indices[idx][self._data[idx] != 0]).astype(np.int64)
+
+    def vertex_faces(self, vertices) -> np.ndarray:
+        """Sorted patches containing any of ``vertices`` (int or ``(k,)``), in ``O(k)``."""
+        v = np.atleast_1d(np.asarray(vertices)).astype(np.int64)
+        bad = v[(v < 0) | (v >= self.space.tri.n_vertices)]
+        if bad.size:
+            raise InputError(f"vertex ids {first_few(bad)} outside [0, {self.space.tri.n_vertices})")
+        return self._faces_of(v)  # corner point id == vertex id
+
+    def supports(self, free_ids) -> tuple[np.ndarray, np.ndarray]:
+        """Patches each free point controls, without moving anything.
+
+        Returns
+        -------
+        owner : (n,) int64, position in ``free_ids``
+        face : (n,) int64, a patch that changes when ``free_ids[owner]`` moves (pairs may repeat)
+        """
+        ids = self._free_ids(free_ids)
+        cidx, cown = _ranges(self._cptr, ids, local=True)
+        rows = self._crows[cidx]
+        fidx, fown = _ranges(self._pf_ptr, rows, local=True)
+        return cown[fown], self._pf_face[fidx]
+
+    def patch_matrix(self, faces: np.ndarray, free_ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The patches' control points as an affine function of some free points.
+
+        ``ctrl[faces] = A @ free[free_ids] + c`` with the other free points at their
+        current positions. ``free_ids`` must be sorted.
+
+        Returns
+        -------
+        A : (21 n, k) scipy.sparse.csr_array, rows in patch-major storage order
+        c : (21 n, d)
+        """
+        faces = np.asarray(faces, np.int64)
+        ids = np.asarray(free_ids, np.int64)
+        rows = self.space.point_index[faces].ravel()
+        idx, loc = _ranges(self._indptr, rows, local=True)
+        col = self._indices[idx]
+        pos = np.searchsorted(ids, col)
+        pos_c = np.minimum(pos, max(ids.size - 1, 0))
+        inside = (pos < ids.size) & (ids[pos_c] == col) if ids.size else np.zeros(col.size, bool)
+        A = sp.csr_array((self._data[idx[inside]], (loc[inside], pos[inside])), shape=(rows.size, ids.size))
+        out = ~inside
+        vals = self._data[idx[out], None] * self._free[col[out]]
+        c = np.stack([np.bincount(loc[out], vals[:, k], minlength=rows.size) for k in range(vals.shape[1])], 1)
+        return A, c
 
     def describe_point(self, point: int) -> str:
         """Human-readable name of global control point ``point``."""
