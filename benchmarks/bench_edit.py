@@ -17,6 +17,15 @@ about the requested number of faces. For each size, in one run:
 
 The last line checks the claims of issue 6: per-edit time flat across sizes (largest
 within 2x of smallest) and under 100 us.
+
+Second table (``--refair-faces``, skip with ``--refair-faces`` and no value): local
+re-fairing (:class:`trispline.fit.refair.LocalRefairer`) after one data vertex near the
+middle of a fitted height field ``z = sin 3x cos 2y`` moves up by a quarter of the
+domain, for ``k = 1..4`` rings, against a global refit (``fit_surface`` on the moved
+data, JIT already warm from the first fit) in the same run. ``excess`` is
+``(E_local - E_global) / (E_edit - E_global)``: the share of the energy the global
+refit removes that the local re-fairing leaves (0 = as good as the global refit,
+1 = no better than moving the corner point alone).
 """
 from __future__ import annotations
 
@@ -91,6 +100,7 @@ def main() -> None:
     ap.add_argument("--faces", type=int, nargs="+", default=[1000, 100_000, 1_000_000])
     ap.add_argument("--edits", type=int, default=2000)
     ap.add_argument("--batch", type=int, default=1000)
+    ap.add_argument("--refair-faces", type=int, nargs="*", default=[2000, 20_000])
     args = ap.parse_args()
     hdr = (f"{'faces':>9} {'n_free':>9} {'nnz(M)':>10} {'build s':>8} {'init s':>7} {'edit us':>8} "
            f"{'mean us':>7} {'p95 us':>7} {'batch us/edit':>13} {'rebuild ms':>10} {'speedup':>8} {'=rebuild':>8}")
@@ -108,6 +118,46 @@ def main() -> None:
     print(f"\nmedian per-edit time, largest / smallest mesh: {ratio:.2f}x (claim: < 2x); "
           f"worst median {worst * 1e6:.1f} us (claim: < 100 us); "
           f"edits bit-identical to the rebuild: {all(r['exact'] for r in rows)}")
+    if args.refair_faces:
+        refair_table(args.refair_faces)
+
+
+def refair_table(sizes: list[int]) -> None:
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    from trispline.fit.fitting import fit_surface
+    from trispline.fit.refair import LocalRefairer, fairness_energy
+
+    hdr = (f"\n{'faces':>7} {'rings':>5} {'free moved':>10} {'patches':>7} {'local ms':>8} "
+           f"{'global s':>8} {'E edit':>10} {'E local':>10} {'E global':>10} {'excess':>8}")
+    print(hdr)
+    print("-" * len(hdr))
+    for n in sizes:
+        uv, f = grid_with_faces(n, seed=1)
+        V = np.column_stack([uv, np.sin(3 * uv[:, 0]) * np.cos(2 * uv[:, 1])])
+        result = fit_surface(V, f, uv=uv)
+        v = int(np.argmin(np.linalg.norm(uv - 0.5, axis=1)))
+        V2 = V.copy()
+        V2[v, 2] += 0.25
+        t0 = time.perf_counter()
+        refit = fit_surface(V2, f, uv=uv)
+        t_global = time.perf_counter() - t0
+        e_global = fairness_energy(refit.space, refit.free, V2, result.weights)["total"]
+        ed = SplineEditor.from_fit(result)
+        ed.move_vertex(v, V2[v])
+        e_edit = fairness_energy(ed.space, ed.free, V2, result.weights)["total"]
+        for rings in (1, 2, 3, 4):
+            rf = LocalRefairer.from_fit(result, rings=rings)
+            rf.move_vertex(v, V2[v])  # warm-up (and undone below)
+            rf = LocalRefairer.from_fit(result, rings=rings)
+            t0 = time.perf_counter()
+            res = rf.move_vertex(v, V2[v])
+            t_local = time.perf_counter() - t0
+            e_local = rf.energy()["total"]
+            excess = (e_local - e_global) / (e_edit - e_global)
+            print(f"{f.shape[0]:>7} {rings:>5} {res.free_ids.size:>10} {res.faces.size:>7} {t_local * 1e3:>8.1f} "
+                  f"{t_global:>8.2f} {e_edit:>10.4g} {e_local:>10.4g} {e_global:>10.4g} {excess:>8.1e}", flush=True)
 
 
 if __name__ == "__main__":
