@@ -265,7 +265,7 @@ def fit_surface(
     args_np = prob.args
     # energies in data units (the residuals are linear in the scale, except the angle term's)
     en_vals = {k: float(v) * (size**2 if k != "angle" else 1.0)
-               for k, v in en.energies(jnp.asarray(x), args_np).items()}
+               for k, v in _energies_jit(jnp.asarray(x), args_np).items()}
     rep = continuity_report(tri, ctrl)
     interp = float(np.abs(ctrl[np.arange(tri.n_faces)[:, None], CORNER[None, :]] - V[faces]).max())
     surface = _make_surface(uv, faces, ctrl, V, free, weights)
@@ -405,6 +405,14 @@ def _setup(V: np.ndarray, space: SplineSpace, w: FitWeights, data_points,
     return _Problem(args=args, H=H, free_r=free_r, scale=scale, nonlinear=nonlinear)
 
 
+def _half_sum_squares(x: jax.Array, args: dict) -> jax.Array:
+    return 0.5 * sum(jnp.sum(r * r) for r in en.residuals(x, args).values())
+
+
+_gradient_jit = jax.jit(jax.grad(_half_sum_squares))
+_energies_jit = jax.jit(en.energies)
+
+
 def _solve(prob: _Problem, factor: SparseCholesky, w: FitWeights, solver, max_steps: int):
     """Gauss--Newton; returns ``(x (n_r, 3), steps, converged)``."""
     n = prob.free_r.size
@@ -424,9 +432,8 @@ def _solve(prob: _Problem, factor: SparseCholesky, w: FitWeights, solver, max_st
     steps = int(sol.stats["num_steps"])
     ok = sol.result == optx.RESULTS.successful
     # independent stationarity check: |J^T r| small relative to the terms' scale
-    g = jax.grad(lambda y: 0.5 * sum(jnp.sum(r * r) for r in en.residuals(y, prob.args).values()))(x)
-    g_ref = jax.grad(lambda y: 0.5 * sum(jnp.sum(r * r) for r in en.residuals(y, prob.args).values()))(
-        jnp.zeros((n, 3)))
+    g = _gradient_jit(x, prob.args)
+    g_ref = _gradient_jit(jnp.zeros((n, 3)), prob.args)
     gnorm = float(jnp.abs(g).max())
     gref = float(jnp.abs(g_ref).max()) or 1.0
     ok = bool(ok) and gnorm <= CONVERGED_GRAD_RTOL * gref
