@@ -247,16 +247,37 @@ def export_control_net(
 
 
 # ------------------------------------------------------------------------ pictures
+def _auto_view(V: np.ndarray, T: np.ndarray, tilt: float, elev: float | None, azim: float | None
+               ) -> tuple[float, float]:
+    """Camera (elev, azim) in degrees: ``tilt`` degrees off the mean normal of the mesh."""
+    n = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]).sum(0)
+    n = n / (np.linalg.norm(n) or 1.0)
+    if n[2] < 0:
+        n = -n
+    side = np.cross(n, [0.0, 0.0, 1.0])
+    side = side / np.linalg.norm(side) if np.linalg.norm(side) > 1e-6 else np.array([0.0, -1.0, 0.0])
+    down = np.cross(n, side)  # in the surface, pointing away from +z
+    if down[2] > 0:
+        down = -down
+    t = np.radians(tilt)
+    eye = np.cos(t) * n + np.sin(t) * (0.8 * down + 0.6 * side)
+    e = float(np.degrees(np.arcsin(np.clip(eye[2], -1, 1))))
+    a = float(np.degrees(np.arctan2(eye[1], eye[0])))
+    return (e if elev is None else elev), (a if azim is None else azim)
+
+
 def render_image(
     surface: "SplineSurface", path: str | os.PathLike, *, resolution: int = 6,
     data_points: np.ndarray | None = None, patch_lines: bool = True, title: str | None = None,
-    elev: float = 32.0, azim: float = -60.0, size: tuple[float, float] = (6.4, 4.8), dpi: int = 120,
+    elev: float | None = None, azim: float | None = None, view_tilt: float = 50.0, zoom: float = 1.35, size: tuple[float, float] = (6.4, 4.8), dpi: int = 120,
 ) -> Path:
     """Render the surface off-screen (matplotlib Agg) to a PNG file at ``path``.
 
     Shading is Lambertian from the tessellation's analytic normals (two-sided);
     ``patch_lines`` draws the patch boundaries (the images of the domain edges);
     ``data_points (n, 3)`` are drawn as dots (e.g. the fitted mesh's vertices).
+    Unless ``elev`` and ``azim`` (degrees) are given, the camera looks at the surface
+    ``view_tilt`` degrees off its mean normal, so the relief shows.
     The file is written as given (wrap it in :mod:`trispline.fit.atomic` yourself,
     or use :func:`export_surface`, which does).
     """
@@ -269,6 +290,8 @@ def render_image(
     fig = Figure(figsize=size, dpi=dpi)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(projection="3d")
+    if elev is None or azim is None:
+        elev, azim = _auto_view(V, T, view_tilt, elev, azim)
     ax.view_init(elev=elev, azim=azim)
     # light from the viewer's upper left, in data coordinates
     e, a = np.radians(elev + 25.0), np.radians(azim - 35.0)
@@ -302,7 +325,7 @@ def render_image(
     ax.set_xlim(ctr[0] - half[0], ctr[0] + half[0])
     ax.set_ylim(ctr[1] - half[1], ctr[1] + half[1])
     ax.set_zlim(ctr[2] - half[2], ctr[2] + half[2])
-    ax.set_box_aspect(np.maximum(hi - lo, 1e-3 * float((hi - lo).max())))
+    ax.set_box_aspect(np.maximum(hi - lo, 1e-3 * float((hi - lo).max())), zoom=zoom)
     ax.set_axis_off()
     if title:
         ax.set_title(title)
