@@ -37,7 +37,7 @@ import numpy as np
 
 from trispline.spline.errors import InputError
 
-__all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILURE", "EXIT_INPUT", "EXIT_CHECK", "UsageError", "WEIGHT_FIELDS", "mesh_report", "surface_report"]
+__all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILURE", "EXIT_INPUT", "EXIT_CHECK", "UsageError", "CommandFailed", "WEIGHT_FIELDS", "mesh_report", "surface_report"]
 
 EXIT_OK = 0
 EXIT_FAILURE = 1
@@ -55,6 +55,10 @@ EXAMPLE_FACES = 800
 
 class UsageError(InputError):
     """A bad command line (unknown option, missing argument, invalid value)."""
+
+
+class CommandFailed(RuntimeError):
+    """The command could not finish for a reason that is not a bug (exit 1, one line)."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -369,9 +373,10 @@ def _fit(args: argparse.Namespace, ui: _UI, outputs: dict[str, Path | None],
     if vm.kept is not None:
         V, F = vm.V, vm.F
         kept = vm.kept if kept is None else kept[vm.kept]
+        file_uv = None if file_uv is None else file_uv[vm.kept]
         ui.warn(f"vertices were renumbered (the surface's source_vertex_index maps them to {source})")
     uv = None
-    if args.param == "uv" and file_uv is not None and vm.kept is None:
+    if args.param == "uv" and file_uv is not None:
         p = parameterize(V, F, method="uv", uv=file_uv)
         uv, F = p.uv, p.faces
         for m in p.messages:
@@ -379,15 +384,18 @@ def _fit(args: argparse.Namespace, ui: _UI, outputs: dict[str, Path | None],
 
     with ui.stages(("start JAX",) + FIT_STAGES, "fit") as bar:
         _enable_x64()
-        from .fitting import FitWeights, fit_surface
+        from .fitting import FitError, FitWeights, fit_surface
 
         bar.done()
         given = {name: getattr(args, f"w_{name}") for name, _ in WEIGHT_FIELDS
                  if getattr(args, f"w_{name}", None) is not None}
         weights = FitWeights(**given)
         t0 = time.perf_counter()
-        result = fit_surface(V, F, uv=uv, param=args.param, weights=weights, max_steps=args.max_steps,
-                             progress=lambda stage, _seconds: bar.done(stage))
+        try:
+            result = fit_surface(V, F, uv=uv, param=args.param, weights=weights, max_steps=args.max_steps,
+                                 progress=lambda stage, _seconds: bar.done(stage))
+        except FitError as exc:
+            raise CommandFailed(f"{exc} (try a larger --max-steps or other weights)") from exc
         fit_seconds = time.perf_counter() - t0
 
     surface = _with_fit_extras(result, weights, args.param, source, kept)
@@ -732,6 +740,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
+    except CommandFailed as exc:
+        if debug:
+            traceback.print_exc()
+        print(f"{PROG}: error: {_one_line(str(exc))}", file=sys.stderr)
+        return EXIT_FAILURE
     except Exception as exc:  # noqa: BLE001 - the CLI's last line of defence
         if debug:
             traceback.print_exc()

@@ -363,26 +363,34 @@ def test_interrupt_leaves_no_file(c1_file, tmp_path, monkeypatch, capsys):
 # ------------------------------------------------------------------- real fits (2)
 @pytest.fixture(scope="module")
 def fitted(tmp_path_factory):
-    """Fit a file with an unreferenced vertex and a second component (--keep-largest)."""
+    """Fit an OBJ with texture coordinates (--param uv), an unreferenced vertex and a
+    second component (--keep-largest)."""
     d = tmp_path_factory.mktemp("fit")
     V, F = synthetic_scan(80, seed=1)
+    T = synthetic_scan(80, seed=1, rotate=False)[0][:, :2] * 3.0 + 7.0  # vt: the scan's own plane
     Vx = np.insert(V, 5, [[9.0, 9.0, 9.0]], axis=0)  # unreferenced vertex at index 5
+    Tx = np.insert(T, 5, [[0.0, 0.0]], axis=0)
     Fx = np.where(F >= 5, F + 1, F)
     Vt, Ft = grid_patch(1, offset=(5.0, 5.0, 0.0))  # a second, smaller component
+    Fx = np.vstack([Fx, Ft + len(Vx)])
+    Tx = np.vstack([Tx, Vt[:, :2]])
     Vx = np.vstack([Vx, Vt])
-    Fx = np.vstack([Fx, Ft + len(Vx) - len(Vt)])
-    mesh = write_obj(d / "scan.obj", Vx, Fx)
-    r = run("fit", mesh, "-o", d / "s.npz", "--keep-largest", "--mesh-out", d / "s.ply", "--image", d / "s.png",
-            "--control-net", d / "net.glb", "--tilt", "2.5", "--resolution", "3", "--json")
-    return d, mesh, r
+    lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in Vx.tolist()]
+    lines += [f"vt {u!r} {v!r}" for u, v in Tx.tolist()]
+    lines += [f"f {a}/{a} {b}/{b} {c}/{c}" for a, b, c in (Fx + 1).tolist()]
+    mesh = d / "scan.obj"
+    mesh.write_text("\n".join(lines) + "\n")
+    r = run("fit", mesh, "-o", d / "s.npz", "--keep-largest", "--param", "uv", "--mesh-out", d / "s.ply",
+            "--image", d / "s.png", "--control-net", d / "net.glb", "--tilt", "2.5", "--resolution", "3", "--json")
+    return d, mesh, r, Tx
 
 
 def test_fit_keep_largest_maps_vertices_and_writes_everything(fitted):
-    d, mesh, r = fitted
+    d, mesh, r, Tx = fitted
     assert r.returncode == 0, r.stderr
     rep = json.loads(r.stdout)  # stdout is pure JSON (progress and warnings on stderr)
     assert rep["converged"] and rep["c1_residual"] < 1e-12 and rep["max_interpolation_error"] == 0.0
-    assert rep["weights"]["tilt"] == 2.5
+    assert rep["weights"]["tilt"] == 2.5 and rep["param"] == "uv"
     assert any("dropped 1 vertices" in w for w in rep["warnings"])
     assert any("kept the largest of 2 connected components" in w for w in rep["warnings"])
     assert "trispline: warning: " in r.stderr
@@ -392,6 +400,10 @@ def test_fit_keep_largest_maps_vertices_and_writes_everything(fitted):
     raw = np.array([ln.split()[1:] for ln in mesh.read_text().splitlines() if ln.startswith("v ")], float)
     np.testing.assert_array_equal(_corner_points(s), raw[src])  # exact interpolation of the file's vertices
     assert 5 not in src and s.n_vertices == len(raw) - 1 - 4
+    # the domain is the file's vt (up to the normalising similarity), vertex for vertex
+    vt = Tx[src]
+    A, *_ = np.linalg.lstsq(np.column_stack([vt, np.ones(len(vt))]), s.uv, rcond=None)
+    np.testing.assert_allclose(np.column_stack([vt, np.ones(len(vt))]) @ A, s.uv, atol=1e-12)
     energies = dict(zip(s.extras["fit_energy_names"].tolist(), s.extras["fit_energies"].tolist()))
     assert energies == pytest.approx(rep["energies"])
     ply = trimesh.load(d / "s.ply", process=False, force="mesh")
@@ -399,15 +411,15 @@ def test_fit_keep_largest_maps_vertices_and_writes_everything(fitted):
 
 
 def test_check_and_info_after_fit(fitted):
-    d, mesh, _ = fitted
+    d, mesh, _, _ = fitted
     r = run("check", d / "s.npz", "--json")
     assert r.returncode == 0, r.stderr
     rep = json.loads(r.stdout)
     assert rep["ok"] and rep["energies"]["bend"] > 0 and rep["weights"]["tilt"] == 2.5
-    assert rep["max_interpolation_error"] == 0.0 and rep["param"] == "harmonic" and rep["holes"] == 1
+    assert rep["max_interpolation_error"] == 0.0 and rep["param"] == "uv" and rep["holes"] == 1
     r = run("info", mesh)
     assert r.returncode == 3 and "REJECTED [components]" in r.stdout  # without --keep-largest
-    assert "dropped 1 vertices" in r.stderr
+    assert "dropped 1 vertices" in r.stderr and "texture coordinates (vt): yes" in r.stdout
 
 
 def test_demo_keeps_vertex_order(tmp_path):
@@ -425,3 +437,13 @@ def test_demo_keeps_vertex_order(tmp_path):
     np.testing.assert_array_equal(_corner_points(s), np.asarray(s.extras["data_vertices"]))
     np.testing.assert_allclose(_corner_points(s), V, atol=0)
     assert (d / "surface.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_fit_that_does_not_converge_is_exit_1_and_writes_nothing(tmp_path):
+    r = run("fit", "--example", "--example-faces", "60", "--max-steps", "1", "-o", tmp_path / "s.npz",
+            "--mesh-out", tmp_path / "s.obj")
+    assert r.returncode == 1, (r.stdout, r.stderr)
+    lines = r.stderr.strip().splitlines()
+    assert lines[-1].startswith("trispline: error: the fit did not converge"), r.stderr
+    assert "Traceback" not in r.stderr and r.stdout == ""
+    only_inputs(tmp_path)
