@@ -287,6 +287,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--keep-largest", action="store_true", help="judge as fit --keep-largest would")
     _add_common(p)
     p.set_defaults(func=cmd_info)
+
+    # `trispline render` lives in its own module (trispline.fit.render_cli), which builds on
+    # this module's helpers; it is optional, so a checkout without it still works
+    try:
+        from . import render_cli
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__package__}.render_cli":
+            raise
+    else:
+        render_cli.add_parser(sub)
     return parser
 
 
