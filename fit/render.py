@@ -706,7 +706,8 @@ def _draw_pyvista(scenes: Sequence[_Scene], size: tuple[int, int]) -> np.ndarray
                 pl.add_text(sc.title, position="upper_edge", font_size=font, color="black")
                 if sc.legend:
                     small = max(7, int(font * 0.7))
-                    pl.add_text(_wrap(sc.legend, (sub_size[0] - 12) / (1.2 * small)), position=(6, 6),
+                    legend = sc.legend if sub_size[1] >= 300 else sc.legend[:1]
+                    pl.add_text(_wrap(legend, (sub_size[0] - 12) / (1.2 * small)), position=(6, 6),
                                 font_size=small, color="black")
                 focal, ps = _frame(sc, (int(sub_size[0]), int(sub_size[1])))
                 cam = pl.camera
@@ -839,7 +840,7 @@ def _draw_matplotlib(scenes: Sequence[_Scene], size: tuple[int, int]) -> np.ndar
                                              linewidths=0.3 if layer.edges else 0.15, zorder=1))
         ax.text(0.5, 0.985, sc.title, transform=ax.transAxes, ha="center", va="top", fontsize=font)
         if sc.legend:
-            ax.text(0.01, 0.01, _wrap(sc.legend, sub[0] / (0.6 * font * 0.62 * 1.39)), transform=ax.transAxes, ha="left", va="bottom",
+            ax.text(0.01, 0.01, _wrap(sc.legend if sub[1] >= 300 else sc.legend[:1], sub[0] / (0.6 * font * 0.62 * 1.39)), transform=ax.transAxes, ha="left", va="bottom",
                     fontsize=font * 0.62)
         if sc.bar is not None:
             cmap, clim, label = sc.bar
