@@ -69,7 +69,7 @@ CURVATURES = ("mean", "gaussian")
 #: Largest picture side (pixels).
 MAX_SIDE = 8192
 #: Triangles aimed at by the automatic resolution (per backend), and its bounds.
-TARGET_TRIANGLES = {"pyvista": 1_600_000, "matplotlib": 120_000}
+TARGET_TRIANGLES = {"pyvista": 1_700_000, "matplotlib": 120_000}
 MAX_AUTO_RESOLUTION = 8
 #: Faces evaluated per block (bounds the memory of the derivative arrays).
 BLOCK_FACES = 20_000
@@ -539,6 +539,21 @@ def _wrap(lines: Sequence[str], chars: float) -> str:
     return "\n".join(w for line in lines for w in textwrap.wrap(line, width, subsequent_indent="  "))
 
 
+@lru_cache(maxsize=1)
+def _net_edges() -> np.ndarray:
+    """(45, 2) storage indices of the control-net edges of one patch."""
+    from trispline.spline._index import DEGREE, index_of
+
+    e = set()
+    n = DEGREE
+    for i in range(n, 0, -1):
+        for j in range(n - i + 1):
+            k = n - i - j
+            a, b, c = index_of(i, j, k), index_of(i - 1, j + 1, k), index_of(i - 1, j, k + 1)
+            e |= {tuple(sorted(x)) for x in ((a, b), (b, c), (c, a))}
+    return np.array(sorted(e), np.int64)
+
+
 def _fmt(x: float) -> str:
     return f"{x:.3g}"
 
@@ -611,14 +626,16 @@ def _scene(surface: "SplineSurface | None", mode: str, *, mesh: Any, view: View,
                    f"max abs {_fmt(m)} ({_fmt(100 * m / diag) if diag > 0 else '?'}% of the diagonal), "
                    f"RMS {_fmt(rms)}"]
     if mode == "controlnet":
-        from .export import control_net
-
-        pts, _, seg = control_net(surface)
+        # per patch (shared boundary points drawn once per patch: no global de-duplication)
+        pts = np.asarray(surface.ctrl, np.float64).reshape(-1, 3)
+        seg = (_net_edges()[None] + NCTRL * np.arange(nf)[:, None, None]).reshape(-1, 2)
+        tri = surface.triangulation
+        n_points = tri.n_vertices + 4 * tri.n_edges + 6 * tri.n_faces
         layer.color = (0.85, 0.88, 0.92)
         layers += [_Layer("lines", pts, seg, color=_NET_RGB, lit=False, width=1.0),
                    _Layer("points", pts, color=(0.1, 0.1, 0.1), lit=False, width=3.0)]
-        stats.update(control_points=int(pts.shape[0]), net_segments=int(seg.shape[0]))
-        legend.append(f"{pts.shape[0]} control points, {seg.shape[0]} net segments")
+        stats.update(control_points=int(n_points))
+        legend.append(f"{n_points} control points (V + 4E + 6F), 45 net segments per patch")
     draw_lines = (nf <= 5000) if patch_lines is None else bool(patch_lines)
     if draw_lines and mode != "controlnet":
         cp, cs = _patch_curves(surface, max(r, 2))
@@ -959,7 +976,7 @@ def render(surface: "SplineSurface", path: str | os.PathLike, mode: str = "shade
         (default: the fit's data vertices stored in the surface file)
     view : ``"iso" | "top" | "front" | "side"``, ``"azimuth,elevation"`` or a pair (degrees)
     size : ``(width, height)`` or ``"WxH"`` in pixels
-    resolution : samples per patch edge (default: about 1.6M triangles, at most 8)
+    resolution : samples per patch edge (default: about 1.7M triangles, at most 8)
     curvature : ``"mean"`` or ``"gaussian"`` (mode ``curvature``)
     stripes, stripe_angle : zebra tube count per bounding-box diagonal and direction (degrees)
     patch_lines : draw patch boundaries (default: up to 5000 patches)

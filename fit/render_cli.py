@@ -90,7 +90,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--size", type=_size, default=DEFAULT_SIZE, metavar="WxH",
                    help=f"picture size in pixels (default {DEFAULT_SIZE})")
     p.add_argument("--resolution", type=_positive_int, default=None, metavar="N",
-                   help="samples per patch edge (default: automatic, about 1.6M triangles, at most 8)")
+                   help="samples per patch edge (default: automatic, about 1.7M triangles, at most 8)")
     p.add_argument("--curvature", choices=CURVATURES, default="mean", help="for --mode curvature (default mean)")
     p.add_argument("--stripes", type=_positive_float, default=12.0, metavar="N",
                    help="zebra: light tubes per bounding-box diagonal (default 12)")
