@@ -75,6 +75,8 @@ MAX_AUTO_RESOLUTION = 8
 BLOCK_FACES = 20_000
 #: Highlight lines: |N . W| below this (normal almost parallel to the light panel) is left grey.
 ZEBRA_MIN_COS = 1e-3
+#: Patch boundaries are drawn by default up to this many patches.
+PATCH_LINES_MAX = 2000
 #: Robust colour range of curvature maps: this percentile of |value|.
 CURVATURE_PERCENTILE = 98.0
 
@@ -636,7 +638,7 @@ def _scene(surface: "SplineSurface | None", mode: str, *, mesh: Any, view: View,
                    _Layer("points", pts, color=(0.1, 0.1, 0.1), lit=False, width=3.0)]
         stats.update(control_points=int(n_points))
         legend.append(f"{n_points} control points (V + 4E + 6F), 45 net segments per patch")
-    draw_lines = (nf <= 5000) if patch_lines is None else bool(patch_lines)
+    draw_lines = (nf <= PATCH_LINES_MAX) if patch_lines is None else bool(patch_lines)
     if draw_lines and mode != "controlnet":
         cp, cs = _patch_curves(surface, max(r, 2))
         layers.append(_Layer("lines", cp, cs, color=(0.15, 0.15, 0.25), lit=False, width=0.6))
@@ -748,7 +750,12 @@ def _add_layer_pyvista(pl, layer: _Layer, sc: _Scene, col: int) -> None:
                     lighting=False, render_points_as_spheres=False)
         return
     if layer.kind == "lines":
-        pl.add_mesh(_polydata(layer), color=layer.color, line_width=layer.width, lighting=False)
+        # lift the lines toward the camera (parallel projection: no shift on screen) so
+        # that curves lying on the surface are not half hidden by it (z-fighting)
+        P = sc.frame
+        lift = 2e-3 * float(np.linalg.norm(P.max(0) - P.min(0))) if P.size else 0.0
+        moved = _Layer("lines", layer.points + lift * sc.view.toward, layer.cells)
+        pl.add_mesh(_polydata(moved), color=layer.color, line_width=layer.width, lighting=False)
         return
     light = dict(ambient=0.25, diffuse=0.75, specular=0.15, specular_power=20.0)
     if layer.stripes is not None:
@@ -979,7 +986,7 @@ def render(surface: "SplineSurface", path: str | os.PathLike, mode: str = "shade
     resolution : samples per patch edge (default: about 1.7M triangles, at most 8)
     curvature : ``"mean"`` or ``"gaussian"`` (mode ``curvature``)
     stripes, stripe_angle : zebra tube count per bounding-box diagonal and direction (degrees)
-    patch_lines : draw patch boundaries (default: up to 5000 patches)
+    patch_lines : draw patch boundaries (default: up to :data:`PATCH_LINES_MAX` patches)
     backend : ``"auto"`` (PyVista, else matplotlib), ``"pyvista"`` or ``"matplotlib"``
     """
     from .export import check_export_path

@@ -97,7 +97,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--stripe-angle", type=_finite_float, default=45.0, metavar="DEG",
                    help="zebra: direction of the tubes on screen, degrees from horizontal (default 45)")
     p.add_argument("--patch-lines", choices=("auto", "on", "off"), default="auto",
-                   help="draw the patch boundaries (default auto: up to 5000 patches)")
+                   help="draw the patch boundaries (default auto: up to 2000 patches)")
     p.add_argument("--title", default=None, help="picture title (default: the mode and patch count)")
     p.add_argument("--backend", choices=BACKENDS, default=None,
                    help="auto (PyVista, else matplotlib; default, or $TRISPLINE_RENDER_BACKEND), pyvista, matplotlib")
