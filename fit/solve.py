@@ -42,28 +42,63 @@ def require_x64() -> None:
         )
 
 
+#: Factorisation backends in order of preference; override with TRISPLINE_SOLVER.
+BACKENDS = ("pardiso", "cholespy", "splu")
+
+
+def _pick_backend(requested: str | None) -> str:
+    import importlib.util
+    import os
+
+    want = requested or os.environ.get("TRISPLINE_SOLVER") or "auto"
+    if want not in ("auto",) + BACKENDS:
+        raise ValueError(f"unknown solver backend {want!r}; choose from auto, {', '.join(BACKENDS)}")
+    if want != "auto":
+        return want
+    if importlib.util.find_spec("pypardiso") is not None:
+        return "pardiso"
+    if importlib.util.find_spec("cholespy") is not None:
+        return "cholespy"
+    return "splu"  # pragma: no cover - cholespy is a dependency
+
+
 class SparseCholesky:
     """Sparse Cholesky factor of an SPD matrix, solved on the host.
 
     Parameters
     ----------
     H : scipy sparse (n, n), symmetric positive definite (both triangles stored)
+    backend : ``"pardiso"``, ``"cholespy"``, ``"splu"`` or None (auto; env ``TRISPLINE_SOLVER``)
 
     Notes
     -----
-    ``cholespy`` (bundled CHOLMOD) is used when importable; otherwise
-    ``scipy.sparse.linalg.splu`` (slower, still exact).
+    Backends, fastest first (measured on the 50k-face fit matrix, 277k unknowns,
+    47M nonzeros in the factor, 24.5 GFlop, same machine and load):
+    ``pardiso`` (MKL PARDISO via the ``pypardiso`` wheel: METIS ordering, optimised
+    BLAS, threads) 5.5 s; ``cholespy`` (bundled CHOLMOD, which links the reference
+    netlib BLAS) 15.5 s; ``scipy.sparse.linalg.splu`` as the last resort.
     """
 
-    def __init__(self, H: sp.spmatrix) -> None:
+    def __init__(self, H: sp.spmatrix, backend: str | None = None) -> None:
         H = sp.csr_matrix(H, dtype=np.float64)
         if H.shape[0] != H.shape[1]:
             raise ValueError(f"H must be square, got {H.shape}")
         H.sum_duplicates()
         H.sort_indices()
         self.n = int(H.shape[0])
-        self.backend = "cholespy"
-        try:
+        self.backend = _pick_backend(backend)
+        if self.backend == "pardiso":
+            import pypardiso
+
+            self._upper = sp.triu(H, format="csr")
+            self._upper.sort_indices()
+            self._solver = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
+            self._solver.set_iparm(8, 0)  # no iterative refinement steps: the factor is exact
+            try:
+                self._solver.factorize(self._upper)
+            except pypardiso.pardiso_wrapper.PyPardisoError as exc:  # -4: zero or negative pivot
+                raise np.linalg.LinAlgError(f"the normal matrix is not positive definite ({exc})") from exc
+        elif self.backend == "cholespy":
             import cholespy
 
             self._solver = cholespy.CholeskySolverD(
@@ -73,20 +108,30 @@ class SparseCholesky:
                 np.ascontiguousarray(H.data),
                 cholespy.MatrixType.CSR,
             )
-        except ImportError:  # pragma: no cover - cholespy is a dependency
+        else:
             import scipy.sparse.linalg as spla
 
-            self.backend = "splu"
             self._solver = spla.splu(H.tocsc())
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """``H^{-1} b`` for ``b: (n,)`` or ``(n, k)``."""
         b = np.array(b, dtype=np.float64, order="C", copy=True)
-        if self.backend == "splu":  # pragma: no cover
+        if self.backend == "splu":
             return self._solver.solve(b)
+        if self.backend == "pardiso":
+            self._solver.set_phase(33)
+            x = self._solver._call_pardiso(self._upper, np.asfortranarray(b))
+            return np.ascontiguousarray(x).reshape(b.shape)
         x = np.zeros_like(b)
         self._solver.solve(b, x)
         return x
+
+    def __del__(self) -> None:
+        if getattr(self, "backend", None) == "pardiso":
+            try:
+                self._solver.free_memory(everything=True)
+            except Exception:  # pragma: no cover - interpreter shutdown
+                pass
 
     def jax_solve(self, b: jax.Array) -> jax.Array:
         """``H^{-1} b`` inside traced JAX code (host callback)."""
