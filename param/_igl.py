@@ -37,3 +37,15 @@ def composite_harmonic(UV0: np.ndarray, F: np.ndarray, b: np.ndarray, bc: np.nda
             np.ascontiguousarray(b, dtype=np.int64), np.ascontiguousarray(bc, dtype=np.float64),
         )
     )
+
+
+def closest_points(P: np.ndarray, V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Exact closest points on the mesh ``(V, F)`` (libigl's AABB tree).
+
+    Returns ``(squared distance (n,), face index (n,), closest point (n, 3))``.
+    """
+    sq, idx, C = igl.point_mesh_squared_distance(
+        np.ascontiguousarray(P, dtype=np.float64), np.ascontiguousarray(V, dtype=np.float64),
+        np.ascontiguousarray(F, dtype=np.int64),
+    )
+    return np.asarray(sq), np.asarray(idx, dtype=np.int64), np.asarray(C)
