@@ -20,6 +20,9 @@ there is no per-face Python loop.
 """
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 from functools import lru_cache
 from typing import NamedTuple
 
@@ -38,7 +41,7 @@ class Tessellation(NamedTuple):
     """A triangle mesh sampled from a spline surface.
 
     vertices : (m, d) surface points
-    triangles : (t, 3) int64, counter-clockwise in uv
+    triangles : (t, 3) int32 (int64 beyond 2^31 vertices), counter-clockwise in uv
     normals : (m, 3) unit normals (zero where the surface is singular); only for d == 3
     uv : (m, 2) domain point of each vertex
     """
@@ -135,6 +138,22 @@ def _eval_fixed(cols: np.ndarray, bary: np.ndarray) -> tuple[np.ndarray, np.ndar
     return out[0], normals.transpose(1, 0, 2)
 
 
+#: Faces per chunk below which tessellation stays on one thread.
+CHUNK_FACES = 4096
+
+
+def _run_chunks(n: int, fn) -> None:
+    """Call ``fn(lo, hi)`` over ``[0, n)`` in chunks, on a thread per core when it pays."""
+    workers = min(os.cpu_count() or 1, 8, max(1, n // CHUNK_FACES))
+    if workers == 1:
+        fn(0, n)
+        return
+    bounds = np.linspace(0, n, 2 * workers + 1).astype(int)
+    with ThreadPoolExecutor(workers) as pool:
+        for fut in [pool.submit(fn, int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]:
+            fut.result()
+
+
 def tessellate(
     uv: np.ndarray,
     faces: np.ndarray,
@@ -218,29 +237,38 @@ def tessellate(
             (1.0 - t)[:, None, None] * UV[start[order]][None] + t[:, None, None] * UV[end[order]][None]
         ).reshape(-1, 2)
 
-    # --- interior samples: one product over all faces
+    # --- interior samples and the per-face vertex ids: independent per face, so they
+    # run on face chunks in threads (numpy releases the GIL in these kernels)
     base = nv + (r - 1) * ne
-    if n_inner:
-        ib = np.column_stack([r - jk[inner].sum(1), jk[inner, 0], jk[inner, 1]]) / r
-        val, nrm = _eval_fixed(cols, ib)
-        vertices[base:].reshape(n_inner, nf, d)[...] = val.transpose(0, 2, 1)
-        if nrm is not None:
-            normals[base:].reshape(n_inner, nf, 3)[...] = nrm.transpose(0, 2, 1)
-        uv_pts[base:] = (ib @ UV[F].transpose(1, 0, 2).reshape(3, -1)).reshape(-1, 2)
-
-    # --- global id of every local grid point of every face: (F, n)
     n = jk.shape[0]
-    gid = np.empty((nf, n), np.int64)
+    idx_t = np.int32 if m < 2**31 - 1 else np.int64
+    triangles = np.empty((nf * ltris.shape[0], 3), idx_t)
+    ib = np.column_stack([r - jk[inner].sum(1), jk[inner, 0], jk[inner, 1]]) / r if n_inner else None
     cm = np.flatnonzero(kind == 0)
-    gid[:, cm] = F[:, la[cm]]
     em = np.flatnonzero(kind == 1)
-    if em.size:
-        ke, se = la[em], lb[em]
-        e = tri.face_edges[:, ke]  # (F, m)
-        forward = F[:, (ke + 1) % 3] == start[e]
-        s = np.where(forward, se[None, :], r - se[None, :])
-        gid[:, em] = nv + (s - 1) * ne + slot[e]
     im = np.flatnonzero(inner)
-    gid[:, im] = base + la[im][None, :] * nf + np.arange(nf)[:, None]
-    triangles = np.take(gid, ltris.ravel(), axis=1).reshape(-1, 3)
+    ke, se = la[em], lb[em]
+    vin = vertices[base:].reshape(n_inner, nf, d)
+    nin = normals[base:].reshape(n_inner, nf, normals.shape[1])
+    uin = uv_pts[base:].reshape(n_inner, nf, 2)
+
+    def faces_chunk(lo: int, hi: int) -> None:
+        if n_inner:
+            val, nrm = _eval_fixed(cols[:, :, lo:hi], ib)
+            vin[:, lo:hi] = val.transpose(0, 2, 1)
+            if nrm is not None:
+                nin[:, lo:hi] = nrm.transpose(0, 2, 1)
+            uin[:, lo:hi] = np.einsum("ik,fkc->ifc", ib, UV[F[lo:hi]])
+        gid = np.empty((hi - lo, n), idx_t)
+        gid[:, cm] = F[lo:hi, la[cm]]
+        if em.size:
+            e = tri.face_edges[lo:hi, ke]  # (chunk, m)
+            forward = F[lo:hi, (ke + 1) % 3] == start[e]
+            s = np.where(forward, se[None, :], r - se[None, :])
+            gid[:, em] = nv + (s - 1) * ne + slot[e]
+        gid[:, im] = base + la[im][None, :] * nf + np.arange(lo, hi)[:, None]
+        nt = ltris.shape[0]
+        triangles[lo * nt : hi * nt] = np.take(gid, ltris.ravel(), axis=1).reshape(-1, 3)
+
+    _run_chunks(nf, faces_chunk)
     return Tessellation(vertices, triangles, normals, uv_pts)
