@@ -252,12 +252,23 @@ def tessellate(
     nin = normals[base:].reshape(n_inner, nf, normals.shape[1])
     uin = uv_pts[base:].reshape(n_inner, nf, 2)
 
+    # one BLAS product for all faces (BLAS threads itself; calling it from several
+    # Python threads oversubscribes the cores), then per-chunk normals and copies
+    if n_inner:
+        flat = cols.reshape(NCTRL, d * nf)
+        if d == 3:
+            dB = basis_gradient_bary(ib)
+            stack = np.concatenate([basis(ib), dB[1] - dB[0], dB[2] - dB[0]])  # (3 n_inner, 21)
+            prod = (stack @ flat).reshape(3, n_inner, 3, nf)
+        else:
+            prod = (basis(ib) @ flat).reshape(1, n_inner, d, nf)
+
     def faces_chunk(lo: int, hi: int) -> None:
         if n_inner:
-            val, nrm = _eval_fixed(cols[:, :, lo:hi], ib)
-            vin[:, lo:hi] = val.transpose(0, 2, 1)
-            if nrm is not None:
-                nin[:, lo:hi] = nrm.transpose(0, 2, 1)
+            vin[:, lo:hi] = prod[0, :, :, lo:hi].transpose(0, 2, 1)
+            if d == 3:
+                nrm = _cross_normalise(prod[1, :, :, lo:hi].transpose(1, 0, 2), prod[2, :, :, lo:hi].transpose(1, 0, 2))
+                nin[:, lo:hi] = nrm.transpose(1, 2, 0)
             uin[:, lo:hi] = np.einsum("ik,fkc->ifc", ib, UV[F[lo:hi]])
         gid = np.empty((hi - lo, n), idx_t)
         gid[:, cm] = F[lo:hi, la[cm]]
