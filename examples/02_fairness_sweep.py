@@ -12,7 +12,9 @@ compiled once; later fits reuse it) and the script records
 * the deviation from the input mesh itself (the piecewise-linear surface over the
   same uv domain), RMS and max.
 
-It writes OUT_DIR/fairness_sweep.csv and OUT_DIR/fairness_sweep.png (matplotlib,
+It writes OUT_DIR/fairness_sweep_zebra.png (zebra stripes of the tilt sweep's surfaces side
+by side, rendered off-screen by trispline.fit.render), and
+OUT_DIR/fairness_sweep.csv and OUT_DIR/fairness_sweep.png (matplotlib,
 off-screen) and asserts the law every weighted least-squares fit obeys: raising
 a term's weight never raises that term.
 """
@@ -34,6 +36,7 @@ from matplotlib.figure import Figure  # noqa: E402
 
 from trispline.fit.atomic import atomic_path  # noqa: E402
 from trispline.fit.fitting import FitWeights, fit_surface  # noqa: E402
+from trispline.fit.render import Panel, render_panels  # noqa: E402
 from trispline.fit.synthetic import _ROT, scan_height, synthetic_scan  # noqa: E402
 from trispline.spline.bernstein import bary_grid  # noqa: E402
 
@@ -60,6 +63,7 @@ def deviations(result) -> dict[str, float]:
 
 
 rows = []
+zebra_panels = []  # the tilt sweep's surfaces, as zebra pictures side by side
 for name, values in SWEEP.items():
     for w in values:
         t0 = time.perf_counter()
@@ -71,6 +75,8 @@ for name, values in SWEEP.items():
             row[f"energy_{term}"] = r.energies[term] / wt if wt > 0 else float("nan")
         row.update(deviations(r))
         rows.append(row)
+        if name == "tilt":
+            zebra_panels.append(Panel(r.surface, "zebra", title=f"tilt = {w:g}"))
         print(f"{name:>5} = {w:<6g} bend {row['energy_bend']:.4g}  tilt {row['energy_tilt']:.4g}  "
               f"local {row['energy_local']:.4g}  dev(true) rms {row['dev_true_rms']:.2e}  "
               f"dev(mesh) max {row['dev_mesh_max']:.2e}  {row['seconds']:.1f} s")
@@ -99,10 +105,12 @@ for ax in (ax_e, ax_d):
 fig.tight_layout()
 with atomic_path(out / "fairness_sweep.png") as tmp:
     fig.savefig(tmp, format="png")
-print(f"wrote {out / 'fairness_sweep.csv'} and {out / 'fairness_sweep.png'}")
+pic = render_panels(zebra_panels, out / "fairness_sweep_zebra.png", view="top", size=(1600, 450))
+print(f"wrote {out / 'fairness_sweep.csv'}, {out / 'fairness_sweep.png'} and {pic}")
 
 # raising a term's weight never raises that term (weighted least squares); 1e-9 relative slack
 for name in SWEEP:
     e = [r[f"energy_{name}"] for r in rows if r["weight"] == name]
     assert all(b <= a * (1 + 1e-9) for a, b in zip(e, e[1:])), (name, e)
 assert all(r["dev_mesh_max"] > 0 and np.isfinite(r["dev_true_rms"]) for r in rows)
+assert (out / "fairness_sweep_zebra.png").stat().st_size > 10_000
