@@ -33,7 +33,7 @@ from trispline.spline.topology import Triangulation, signed_areas
 
 from . import energy as en
 from .gram import thin_plate_gram
-from .normals import area_weighted_normals, fitted_normals, local_polynomial_fit
+from .normals import area_weighted_normals, fitted_normals, local_rbf_fit
 from .solve import FactorSolver, SparseCholesky, require_x64
 
 __all__ = ["FitWeights", "FitResult", "FitError", "fit_surface", "DataPoints"]
@@ -56,18 +56,20 @@ class FitWeights:
     Attributes
     ----------
     bend : thin-plate bending over the uv domain
-    tilt : corner frames toward the local polynomial fit's tangent frame
-    local : other control points toward the blended local polynomial fits
+    tilt : corner frames toward the local fit's tangent frame
+    local : other control points toward the blended local fits
     data : extra sample points (``data_points`` of :func:`fit_surface`)
     angle : nonlinear: the frame's unit normal toward the data normal
-    fit_degree : degree (2 or 3) of the local polynomial fits
+    fit_degree : highest polynomial degree of the local fits: 2 (kernels r^3, r^5) or 3 (also r^7);
+        the local fits are polyharmonic interpolants of each vertex's ``fit_rings``-ring, kernel
+        chosen per vertex by leave-one-out error (:func:`trispline.fit.normals.local_rbf_fit`)
     fit_rings : neighbourhood (edge rings) of the local fits
     blend_power : exponent of the corner blend of the local targets
     """
 
     bend: float = 1.0
-    tilt: float = 10.0
-    local: float = 1.0
+    tilt: float = 30.0
+    local: float = 3.0
     data: float = 1.0
     angle: float = 0.0
     fit_degree: int = 3
@@ -324,8 +326,8 @@ def _setup(V: np.ndarray, space: SplineSpace, w: FitWeights, data_points,
     M_r.sort_indices()
     Mc = M_r.tocoo()
 
-    # local polynomial fits of the data over uv
-    fit = local_polynomial_fit(uv, V, faces, degree=w.fit_degree, rings=w.fit_rings)
+    # local interpolants of the data over uv (polyharmonic, kernel by leave-one-out error)
+    fit = local_rbf_fit(uv, V, faces, max_degree=w.fit_degree, rings=w.fit_rings)
     scale = float(np.ptp(V, axis=0).max()) or 1.0
 
     # tilt: frame points -> fitted frame

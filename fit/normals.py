@@ -224,3 +224,203 @@ def fitted_normals(fit: LocalFit, reference: np.ndarray | None = None) -> np.nda
         bad = (length[:, 0] <= 1e-12 * np.maximum(np.abs(fit.grad).max(axis=(1, 2)) ** 2, 1e-300))
         out[bad] = reference[bad]
     return out
+
+
+# ------------------------------------------------------------------ local RBF interpolants
+#: Polyharmonic kernels ``phi(r) = r**power`` with the polynomial degree each needs
+#: (conditionally positive definite of order ``degree + 1``), as (power, degree).
+RBF_KERNELS: tuple[tuple[int, int], ...] = ((3, 1), (5, 2), (7, 3))
+#: Leave-one-out errors are measured at this many points nearest each vertex (itself included).
+RBF_LOO_POINTS = 7
+#: Vertices are solved in chunks of this many (memory: chunk * (K + 11)**2 floats).
+RBF_CHUNK = 4096
+_NPOLY = 10  # cubic polynomial columns, constant included
+
+
+def _poly3(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Monomials up to degree 3 with the constant: 1, u, v, u^2, uv, v^2, u^3, u^2 v, u v^2, v^3."""
+    return np.stack([np.ones_like(x), x, y, x * x, x * y, y * y, x**3, x * x * y, x * y * y, y**3], axis=-1)
+
+
+def _kernel(r2: np.ndarray, power: np.ndarray) -> np.ndarray:
+    """``r**power`` from squared distances, for odd integer powers (broadcast)."""
+    r = np.sqrt(r2)
+    return np.where(power == 3, r2 * r, np.where(power == 5, r2 * r2 * r, r2 * r2 * r2 * r))
+
+
+@dataclass(frozen=True)
+class LocalRBFFit:
+    """Local polyharmonic interpolants, one per vertex (see :func:`local_rbf_fit`).
+
+    Attributes
+    ----------
+    grad : (nv, d, 2) first partials of each data coordinate at the vertex
+    power : (nv,) kernel power chosen at each vertex (0: linear fit only)
+    loo : (nv,) leave-one-out error (RMS over the data coordinates) of the chosen kernel
+    scale : (nv,) local length (mean distance to the 1-ring)
+    origin : (nv, 2), value : (nv, d) uv and data of each vertex
+    centres : (nv, K, 2) scaled centres (the vertex first, then its neighbours; padding at 0)
+    lam : (nv, K, d) kernel coefficients (0 on padding)
+    coef : (nv, 10, d) polynomial coefficients (cubic monomials, constant first)
+    slope : (nv, 2, d) linear trend removed before the interpolation (scaled units)
+    """
+
+    grad: np.ndarray
+    power: np.ndarray
+    loo: np.ndarray
+    scale: np.ndarray
+    origin: np.ndarray
+    value: np.ndarray
+    centres: np.ndarray
+    lam: np.ndarray
+    coef: np.ndarray
+    slope: np.ndarray
+
+    def evaluate(self, vertex: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """Value of vertex ``vertex[i]``'s interpolant at ``points[i]``: ``(n, d)``."""
+        vertex = np.asarray(vertex, np.int64)
+        points = np.asarray(points, float)
+        out = np.empty((vertex.size, self.value.shape[1]))
+        step = max(1, 2**21 // max(self.centres.shape[1], 1))
+        for s in range(0, vertex.size, step):
+            v = vertex[s:s + step]
+            X = (points[s:s + step] - self.origin[v]) / self.scale[v, None]
+            D = X[:, None, :] - self.centres[v]
+            phi = _kernel(np.einsum("nki,nki->nk", D, D), self.power[v, None])
+            out[s:s + step] = (self.value[v] + np.einsum("ni,nid->nd", X, self.slope[v])
+                               + np.einsum("nk,nkd->nd", phi, self.lam[v])
+                               + np.einsum("nm,nmd->nd", _poly3(X[:, 0], X[:, 1]), self.coef[v]))
+        return out
+
+
+def _solve_batch(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Batched ``A \\ B``; exactly singular systems give NaN instead of failing the batch."""
+    try:
+        return np.linalg.solve(A, B)
+    except np.linalg.LinAlgError:
+        out = np.full(B.shape, np.nan)
+        for i in range(A.shape[0]):  # rare: degenerate neighbourhoods only
+            try:
+                out[i] = np.linalg.solve(A[i], B[i])
+            except np.linalg.LinAlgError:
+                pass
+        return out
+
+
+def local_rbf_fit(
+    uv: np.ndarray,
+    values: np.ndarray,
+    faces: np.ndarray,
+    *,
+    rings: int = 3,
+    max_degree: int = 3,
+    max_neighbours: int = MAX_NEIGHBOURS,
+    loo_points: int = RBF_LOO_POINTS,
+) -> LocalRBFFit:
+    """Polyharmonic spline interpolant of each vertex's k-ring data, kernel chosen by cross-validation.
+
+    For each vertex ``v`` the data of ``v`` and of its nearest ``max_neighbours``
+    vertices within ``rings`` edges are interpolated exactly (in uv scaled by the mean
+    1-ring edge length) by ``sum_j lam_j |x - x_j|**p + polynomial``, for each kernel
+    ``(p, degree)`` of :data:`RBF_KERNELS` with ``degree <= max_degree`` and enough
+    points (``>= 2 x`` the polynomial's coefficients). The kernel with the smallest
+    leave-one-out error (Rippa's formula ``e_k = c_k / (A^-1)_kk``, over the
+    ``loo_points`` points nearest ``v``, all data coordinates together) is kept: smooth
+    data pick the smooth ``r^7``, kinks and cone points the stiffer ``r^3``.
+
+    Parameters
+    ----------
+    uv : (nv, 2), values : (nv, d) or (nv,), faces : (nf, 3)
+    rings : neighbourhood size in edges
+    max_degree : 2 (kernels r^3, r^5) or 3 (also r^7)
+
+    Returns
+    -------
+    LocalRBFFit
+
+    Notes
+    -----
+    A linear least-squares trend through ``v`` is removed first, so linear data give
+    zero kernel and polynomial coefficients and exact gradients (the fit reproduces
+    linear data to rounding). The interpolant is linear in the data and the kernel
+    choice is shared by all coordinates and rotation invariant, so planar data stay
+    in their plane. Vertices with too few neighbours (< 3) keep the linear trend.
+    """
+    if max_degree not in (2, 3):
+        raise ValueError(f"max_degree must be 2 or 3, got {max_degree}")
+    uv = np.asarray(uv, float)
+    vals = np.asarray(values, float)
+    if vals.ndim == 1:
+        vals = vals[:, None]
+    nv, d = vals.shape
+    nbr, count = padded_neighbours(uv, faces, rings, max_neighbours)
+    R1 = vertex_rings(faces, nv, 1)
+    r1 = np.repeat(np.arange(nv), np.diff(R1.indptr))
+    l1 = np.linalg.norm(uv[R1.indices] - uv[r1], axis=1)
+    scale = np.bincount(r1, l1, minlength=nv) / np.maximum(np.diff(R1.indptr), 1)
+    scale = np.where(scale > 0, scale, 1.0)
+    valid = np.concatenate([np.ones((nv, 1), bool), nbr >= 0], axis=1)  # the vertex first
+    nb = np.concatenate([np.arange(nv)[:, None], np.where(nbr >= 0, nbr, 0)], axis=1)
+    K = nb.shape[1]
+    X = (uv[nb] - uv[:, None, :]) / scale[:, None, None]
+    X[~valid] = 0.0
+    Y = vals[nb] - vals[:, None, :]
+    Y[~valid] = 0.0
+    # linear trend through v (least squares, unweighted)
+    G = np.einsum("vki,vkj->vij", X, X)
+    G += (1e-12 * np.einsum("vii->v", G) + 1e-300)[:, None, None] * np.eye(2)
+    slope = np.linalg.solve(G, np.einsum("vki,vkd->vid", X, Y))  # (nv, 2, d)
+    Y = Y - np.einsum("vki,vid->vkd", X, slope)
+
+    kernels = [(p, q) for p, q in RBF_KERNELS if q <= max_degree]
+    nloo = min(loo_points, K)
+    best = np.full(nv, np.inf)
+    power = np.zeros(nv, np.int64)
+    lam = np.zeros((nv, K, d))
+    coef = np.zeros((nv, _NPOLY, d))
+    npts = count + 1
+    for p, q in kernels:
+        m = (q + 1) * (q + 2) // 2
+        for s in range(0, nv, RBF_CHUNK):
+            sl = slice(s, min(s + RBF_CHUNK, nv))
+            ok = npts[sl] >= max(2 * m, 3)
+            if not ok.any():
+                continue
+            idx = np.arange(sl.start, sl.stop)[ok]
+            Xc, vc = X[idx], valid[idx]
+            D = Xc[:, :, None, :] - Xc[:, None, :, :]
+            A = np.zeros((idx.size, K + _NPOLY, K + _NPOLY))
+            A[:, :K, :K] = _kernel(np.einsum("vkli,vkli->vkl", D, D), p)
+            A[:, :K, :K] *= vc[:, :, None] & vc[:, None, :]
+            P = _poly3(Xc[..., 0], Xc[..., 1]) * vc[..., None]
+            P[..., m:] = 0.0
+            A[:, :K, K:] = P
+            A[:, K:, :K] = P.transpose(0, 2, 1)
+            diag = np.arange(K + _NPOLY)
+            A[:, diag, diag] += np.concatenate([~vc, np.broadcast_to(np.arange(_NPOLY) >= m, (idx.size, _NPOLY))],
+                                               axis=1)
+            B = np.zeros((idx.size, K + _NPOLY, d + nloo))
+            B[:, :K, :d] = Y[idx]
+            B[:, np.arange(nloo), d + np.arange(nloo)] = 1.0
+            S = _solve_batch(A, B)
+            c = S[:, :, :d]
+            dg = S[:, np.arange(nloo), d + np.arange(nloo)]  # (A^-1)_kk
+            e = c[:, :nloo, :] / np.where(vc[:, :nloo], dg, 1.0)[..., None]
+            score = np.sqrt(np.sum(np.where(vc[:, :nloo, None], e * e, 0.0), axis=(1, 2)))
+            score = np.where(np.isfinite(score) & np.isfinite(c).all(axis=(1, 2)), score, np.inf)
+            take = score < best[idx]
+            t = idx[take]
+            best[t] = score[take]
+            power[t] = p
+            lam[t] = c[take, :K]
+            coef[t] = c[take, K:]
+    # gradient at the vertex: trend + sum_j lam_j p r_j^(p-2) (0 - x_j) + linear coefficients
+    r2 = np.einsum("vki,vki->vk", X, X)
+    pw = power[:, None]
+    dphi = np.where(pw == 3, np.sqrt(r2), np.where(pw == 5, r2 * np.sqrt(r2), r2 * r2 * np.sqrt(r2)))
+    dphi = -pw * dphi  # (nv, K): d/dx of r^p at 0 is -p r^(p-2) x_j
+    grad = (slope.transpose(0, 2, 1) + np.einsum("vk,vki,vkd->vdi", dphi, X, lam)
+            + coef[:, 1:3, :].transpose(0, 2, 1)) / scale[:, None, None]
+    loo = np.where(np.isfinite(best), best / np.sqrt(d * np.maximum(nloo, 1)), 0.0)
+    return LocalRBFFit(grad=grad, power=power, loo=loo, scale=scale, origin=uv, value=vals, centres=X,
+                       lam=lam, coef=coef, slope=slope)

@@ -41,7 +41,7 @@ from trispline.spline.propagation import KIND_CORNER, KIND_FRAME, SplineSpace
 from . import energy as en
 from .fitting import FitWeights
 from .gram import thin_plate_gram
-from .normals import local_polynomial_fit
+from .normals import local_rbf_fit
 
 __all__ = ["LocalRefairer", "RefairResult", "fairness_energy"]
 
@@ -80,7 +80,7 @@ def _terms(space: SplineSpace, V: np.ndarray, w: FitWeights, faces: np.ndarray, 
         return np.searchsorted(hv, a)
 
     hfaces = loc(tri.faces[halo_faces])
-    fit = local_polynomial_fit(tri.uv[hv], V[hv], hfaces, degree=w.fit_degree, rings=w.fit_rings)
+    fit = local_rbf_fit(tri.uv[hv], V[hv], hfaces, max_degree=w.fit_degree, rings=w.fit_rings)
     target = en.blended_targets(tri.uv[hv], loc(tri.faces[faces]), fit.evaluate, power=w.blend_power)
     areas = tri.areas
     gram = thin_plate_gram(tri.bary_gradients[faces], areas[faces]) * w.bend
