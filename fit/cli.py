@@ -719,6 +719,12 @@ def cmd_info(args: argparse.Namespace, ui: _UI) -> int:
 # ============================================================================ main
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code (see the module docstring)."""
+    return run_cli(build_parser, argv)
+
+
+def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[str] | None = None) -> int:
+    """Parse ``argv`` with ``make_parser()`` and run the chosen command with the CLI's
+    error handling: one-line messages, exit 2 for bad input, 1 for internal failures."""
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     ui = _UI(argparse.Namespace())
@@ -735,7 +741,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             warnings.showwarning = show
             try:
-                args = build_parser().parse_args(argv)
+                args = make_parser().parse_args(argv)
                 ui.json, ui.quiet = bool(getattr(args, "json", False)), bool(getattr(args, "quiet", False))
                 return int(args.func(args, ui))
             finally:

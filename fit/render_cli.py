@@ -18,13 +18,9 @@ result (size, backend, the picture's scale statistics) on stdout.
 from __future__ import annotations
 
 import argparse
-import sys
 import time
-import traceback
-import warnings
 from typing import Any, Sequence
 
-from trispline.spline.errors import InputError
 
 __all__ = ["add_parser", "run", "main"]
 
@@ -156,49 +152,16 @@ def run(args: argparse.Namespace, ui: Any = None) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """``trispline render ...`` on its own (the same exit codes and messages as :func:`trispline.fit.cli.main`)."""
-    from .cli import EXIT_FAILURE, EXIT_INPUT, PROG, _one_line, _Parser, _UI
+    from .cli import PROG, _Parser, run_cli
 
-    argv = list(sys.argv[1:] if argv is None else argv)
-    debug = "--debug" in argv
-    ui = _UI(argparse.Namespace())
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("always", UserWarning)
-            shown = warnings.showwarning
+    def make_parser() -> argparse.ArgumentParser:
+        parser = _Parser(prog=PROG)
+        sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+        sub.required = True
+        add_parser(sub)
+        return parser
 
-            def show(message, category, filename, lineno, file=None, line=None):
-                if issubclass(category, UserWarning):
-                    ui.warn(str(message))
-                else:  # pragma: no cover
-                    shown(message, category, filename, lineno, file, line)
-
-            warnings.showwarning = show
-            try:
-                parser = _Parser(prog=PROG)
-                sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-                sub.required = True
-                add_parser(sub)
-                args = parser.parse_args(argv)
-                ui.json, ui.quiet = bool(getattr(args, "json", False)), bool(getattr(args, "quiet", False))
-                return int(args.func(args, ui))
-            finally:
-                warnings.showwarning = shown
-    except SystemExit as exc:  # --help
-        return int(exc.code or 0) if not isinstance(exc.code, str) else EXIT_INPUT
-    except InputError as exc:
-        if debug:
-            traceback.print_exc()
-        print(f"{PROG}: error: {_one_line(str(exc))}", file=sys.stderr)
-        return EXIT_INPUT
-    except KeyboardInterrupt:
-        print(f"{PROG}: interrupted", file=sys.stderr)
-        return 130
-    except Exception as exc:  # noqa: BLE001
-        if debug:
-            traceback.print_exc()
-        hint = "" if debug else " (run with --debug for the traceback)"
-        print(f"{PROG}: internal error: {type(exc).__name__}: {_one_line(str(exc))}{hint}", file=sys.stderr)
-        return EXIT_FAILURE
+    return run_cli(make_parser, argv)
 
 
 if __name__ == "__main__":  # pragma: no cover
