@@ -57,3 +57,17 @@ def triangulations(draw, max_faces: int = 400):
     scale = draw(st.sampled_from([2.0**-10, 1.0, 2.0**10]))
     uv = scale * uv @ R.T + shift * scale
     return kind, uv, f
+
+
+#: One quick example of every kind, by name (seeded), for tests that sample names.
+SMALL_DOMAINS = {
+    "lone": lambda s: domains.lone_triangle(),
+    "delaunay": lambda s: domains.random_delaunay(30, seed=s),
+    "holes": lambda s: domains.random_delaunay(80, holes=2, seed=s),
+    "lshape": lambda s: domains.l_shape(40, seed=s),
+    "annulus": lambda s: domains.annulus(2, 12),
+    "slivers": lambda s: domains.slivers(6, 150.0),
+    "grid": lambda s: domains.grid(3, diagonal="alternate"),
+    "crisscross": lambda s: domains.grid(3, diagonal="crisscross"),
+    "fan": lambda s: domains.fan(3 + s % 10),
+}
