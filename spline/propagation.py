@@ -233,10 +233,12 @@ def _compose(lay: NetLayout, nv: int, edges: np.ndarray, UV: np.ndarray, frame_s
     data = np.empty(nnz)
     indices = np.empty(nnz, idx_t)
 
-    def put_fixed(row_ids, c, v):
-        dest = indptr[row_ids][:, None] + np.arange(c.shape[1])
-        data[dest] = v
-        indices[dest] = c
+    def put_columns(row_ids, cols, vals):
+        """Rows of fixed width, one scatter per column (no (n, width) temporaries)."""
+        start = indptr[row_ids]
+        for j, (c, v) in enumerate(zip(cols, vals)):
+            data[start + j] = v
+            indices[start + j] = c
 
     # corners and stars occupy the first ids with fixed lengths 1 and 3: one contiguous block
     head = indptr[lay.mid0]
@@ -245,30 +247,32 @@ def _compose(lay: NetLayout, nv: int, edges: np.ndarray, UV: np.ndarray, frame_s
     data[nv:head] = star_vals.ravel()
     indices[nv:head] = star_cols.ravel()
     rest = free_pts[free_pts >= lay.mid0]
-    dest = indptr[rest]
-    data[dest] = 1.0
-    indices[dest] = free_of_point[rest]
+    put_columns(rest, [free_of_point[rest]], [1.0])
     ks = fast["star"] - lay.star0
     w = fast["w"]
-    put_fixed(
+    put_columns(
         fast["rows"],
-        np.column_stack([free_of_point[fast["inner_q"]], free_of_point[fast["inner_p"]], star_cols[ks]]),
-        np.column_stack([w[:, 0], w[:, 1], w[:, 2, None] * star_vals[ks]]),
+        [free_of_point[fast["inner_q"]], free_of_point[fast["inner_p"]]] + [star_cols[ks, j] for j in range(3)],
+        [w[:, 0], w[:, 1]] + [w[:, 2] * star_vals[ks, j] for j in range(3)],
     )
     pos, owner = _ragged_gather(S.indptr, np.arange(s_ids.size))
     dest = indptr[s_ids][owner] + (pos - S.indptr[owner])
     data[dest] = S.data[pos]
     indices[dest] = S.indices[pos]
-    # flips: w_other * other + w_r * row(mid_r) + w_s * row(mid_s)
+    # flips: w_other * other + w_r * row(mid_r) + w_s * row(mid_s); the middle rows are
+    # copied grouped by their length (1 free, 5 fast path, a few others), column by column
     fr, fw = flips["rows"], flips["w"]
-    put_fixed(fr, free_of_point[flips["other"], None], fw[:, :1])
-    offset = 1 + np.zeros(fr.size, np.int64)
+    put_columns(fr, [free_of_point[flips["other"]]], [fw[:, 0]])
+    offset = indptr[fr] + 1
     for mid, wk in ((flips["mid_r"], fw[:, 1]), (flips["mid_s"], fw[:, 2])):
-        pos, owner = _ragged_gather(indptr, mid)
-        dest = indptr[fr][owner] + offset[owner] + (pos - indptr[mid][owner])
-        data[dest] = wk[owner] * data[pos]
-        indices[dest] = indices[pos]
-        offset += length[mid]
+        mlen = length[mid]
+        for L in np.unique(mlen):
+            sel = np.flatnonzero(mlen == L)
+            src, dst, wsel = indptr[mid[sel]], offset[sel], wk[sel]
+            for j in range(int(L)):
+                data[dst + j] = wsel * data[src + j]
+                indices[dst + j] = indices[src + j]
+        offset += mlen
     M = sp.csr_array((data, indices, indptr.astype(idx_t)), shape=(npts, n_free))
     M.sort_indices()
     M.eliminate_zeros()
