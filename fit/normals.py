@@ -242,10 +242,12 @@ def _poly3(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.stack([np.ones_like(x), x, y, x * x, x * y, y * y, x**3, x * x * y, x * y * y, y**3], axis=-1)
 
 
-def _kernel(r2: np.ndarray, power: np.ndarray) -> np.ndarray:
-    """``r**power`` from squared distances, for odd integer powers (broadcast)."""
-    r = np.sqrt(r2)
-    return np.where(power == 3, r2 * r, np.where(power == 5, r2 * r2 * r, r2 * r2 * r2 * r))
+def _kernel(r2: np.ndarray, power) -> np.ndarray:
+    """``r**power`` from squared distances, for odd integer powers 3, 5, 7 (scalar or broadcast)."""
+    r3 = r2 * np.sqrt(r2)
+    if np.ndim(power) == 0:
+        return r3 * r2 ** ((int(power) - 3) // 2)
+    return r3 * np.where(power == 3, 1.0, np.where(power == 5, r2, r2 * r2))
 
 
 @dataclass(frozen=True)
@@ -379,34 +381,36 @@ def local_rbf_fit(
     lam = np.zeros((nv, K, d))
     coef = np.zeros((nv, _NPOLY, d))
     npts = count + 1
-    for p, q in kernels:
-        m = (q + 1) * (q + 2) // 2
-        for s in range(0, nv, RBF_CHUNK):
-            sl = slice(s, min(s + RBF_CHUNK, nv))
+    for s in range(0, nv, RBF_CHUNK):
+        sl = np.arange(s, min(s + RBF_CHUNK, nv))
+        Xc, vc = X[sl], valid[sl]
+        D = Xc[:, :, None, :] - Xc[:, None, :, :]
+        R2 = np.einsum("vkli,vkli->vkl", D, D)
+        pair = vc[:, :, None] & vc[:, None, :]
+        P0 = _poly3(Xc[..., 0], Xc[..., 1]) * vc[..., None]
+        B = np.zeros((sl.size, K + _NPOLY, d + nloo))
+        B[:, :K, :d] = Y[sl]
+        B[:, np.arange(nloo), d + np.arange(nloo)] = 1.0
+        diag = np.arange(K + _NPOLY)
+        for p, q in kernels:
+            m = (q + 1) * (q + 2) // 2
             ok = npts[sl] >= max(2 * m, 3)
             if not ok.any():
                 continue
-            idx = np.arange(sl.start, sl.stop)[ok]
-            Xc, vc = X[idx], valid[idx]
-            D = Xc[:, :, None, :] - Xc[:, None, :, :]
+            idx = sl[ok]
             A = np.zeros((idx.size, K + _NPOLY, K + _NPOLY))
-            A[:, :K, :K] = _kernel(np.einsum("vkli,vkli->vkl", D, D), p)
-            A[:, :K, :K] *= vc[:, :, None] & vc[:, None, :]
-            P = _poly3(Xc[..., 0], Xc[..., 1]) * vc[..., None]
+            A[:, :K, :K] = np.where(pair[ok], _kernel(R2[ok], p), 0.0)
+            P = P0[ok].copy()
             P[..., m:] = 0.0
             A[:, :K, K:] = P
             A[:, K:, :K] = P.transpose(0, 2, 1)
-            diag = np.arange(K + _NPOLY)
-            A[:, diag, diag] += np.concatenate([~vc, np.broadcast_to(np.arange(_NPOLY) >= m, (idx.size, _NPOLY))],
-                                               axis=1)
-            B = np.zeros((idx.size, K + _NPOLY, d + nloo))
-            B[:, :K, :d] = Y[idx]
-            B[:, np.arange(nloo), d + np.arange(nloo)] = 1.0
-            S = _solve_batch(A, B)
+            A[:, diag, diag] += np.concatenate(
+                [~vc[ok], np.broadcast_to(np.arange(_NPOLY) >= m, (idx.size, _NPOLY))], axis=1)
+            S = _solve_batch(A, B[ok])
             c = S[:, :, :d]
             dg = S[:, np.arange(nloo), d + np.arange(nloo)]  # (A^-1)_kk
-            e = c[:, :nloo, :] / np.where(vc[:, :nloo], dg, 1.0)[..., None]
-            score = np.sqrt(np.sum(np.where(vc[:, :nloo, None], e * e, 0.0), axis=(1, 2)))
+            e = c[:, :nloo, :] / np.where(vc[ok][:, :nloo], dg, 1.0)[..., None]
+            score = np.sqrt(np.sum(np.where(vc[ok][:, :nloo, None], e * e, 0.0), axis=(1, 2)))
             score = np.where(np.isfinite(score) & np.isfinite(c).all(axis=(1, 2)), score, np.inf)
             take = score < best[idx]
             t = idx[take]
@@ -417,8 +421,8 @@ def local_rbf_fit(
     # gradient at the vertex: trend + sum_j lam_j p r_j^(p-2) (0 - x_j) + linear coefficients
     r2 = np.einsum("vki,vki->vk", X, X)
     pw = power[:, None]
-    dphi = np.where(pw == 3, np.sqrt(r2), np.where(pw == 5, r2 * np.sqrt(r2), r2 * r2 * np.sqrt(r2)))
-    dphi = -pw * dphi  # (nv, K): d/dx of r^p at 0 is -p r^(p-2) x_j
+    dphi = -pw * np.sqrt(r2) * np.where(pw == 5, r2, np.where(pw == 7, r2 * r2, 1.0))
+    # (nv, K): d/dx of r^p at 0 is -p r^(p-2) x_j
     grad = (slope.transpose(0, 2, 1) + np.einsum("vk,vki,vkd->vdi", dphi, X, lam)
             + coef[:, 1:3, :].transpose(0, 2, 1)) / scale[:, None, None]
     loo = np.where(np.isfinite(best), best / np.sqrt(d * np.maximum(nloo, 1)), 0.0)
