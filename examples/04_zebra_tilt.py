@@ -42,7 +42,7 @@ SIZE = (1200, 560)
 
 V, F = synthetic_scan(300, seed=0)
 fits = {}
-for name, weights in (("with tilt (tilt=10, default)", FitWeights()), ("without tilt (tilt=0)", FitWeights(tilt=0.0))):
+for name, weights in ((f"with tilt (tilt={FitWeights().tilt:g}, default)", FitWeights()), ("without tilt (tilt=0)", FitWeights(tilt=0.0))):
     t0 = time.perf_counter()
     fits[name] = fit_surface(V, F, weights=weights).surface
     print(f"fit {name}: {time.perf_counter() - t0:.1f} s")

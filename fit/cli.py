@@ -203,8 +203,8 @@ def _add_common(p: argparse.ArgumentParser) -> None:
 
 
 def _add_fit_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--param", choices=("harmonic", "lscm", "uv"), default="harmonic",
-                   help="parameterization: harmonic (disk, default), lscm (free boundary), "
+    p.add_argument("--param", choices=("harmonic", "lscm", "uv"), default="lscm",
+                   help="parameterization: lscm (free boundary, default), harmonic (boundary on a circle), "
                         "uv (the OBJ's texture coordinates, or x, y of a height field)")
     p.add_argument("--keep-largest", action="store_true",
                    help="fit the largest connected component instead of rejecting several components "
