@@ -30,7 +30,7 @@ C1_TARGET = 1e-9
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--param", default="harmonic", choices=["harmonic", "lscm"])
+    ap.add_argument("--param", default="lscm", choices=["harmonic", "lscm"])
     ap.add_argument("--only", nargs="*", help="mesh file names to run")
     args = ap.parse_args(argv)
     if not DATA.is_dir():
