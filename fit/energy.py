@@ -112,8 +112,9 @@ def blended_targets(
 ) -> np.ndarray:
     """Per-patch target nets from the three vertices' local polynomials.
 
-    ``evaluate_fit(vertex_ids (n,), points (n, 2)) -> (n, d)`` evaluates the local
-    polynomial of each vertex. The target of control point ``b_ijk`` is the blend
+    ``evaluate_fit(vertex_ids (F,), points (F, 21, 2)) -> (F, 21, d)`` evaluates the
+    local fit of ``vertex_ids[f]`` at the 21 domain points of patch ``f`` (the grouped
+    form of :meth:`trispline.fit.normals.LocalRBFFit.evaluate`). The target of control point ``b_ijk`` is the blend
     ``sum_k e_k^power N_k / sum_k e_k^power`` of the three polynomials' exact
     quintic nets ``N_k`` on the patch (``e`` the point's exponents), so points near
     a corner follow that corner's fit.
@@ -131,8 +132,7 @@ def blended_targets(
     beta = e / e.sum(1, keepdims=True)  # (21, 3)
     out = None
     for k in range(3):
-        vid = np.repeat(faces[:, k], NCTRL)
-        vals = evaluate_fit(vid, pts.reshape(-1, 2)).reshape(nf, NCTRL, -1)
+        vals = evaluate_fit(faces[:, k], pts)  # (F, 21, d)
         net = np.einsum("ij,fjd->fid", Binv, vals)
         term = beta[None, :, k, None] * net
         out = term if out is None else out + term

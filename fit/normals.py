@@ -122,9 +122,14 @@ class LocalFit:
     value: np.ndarray
 
     def evaluate(self, vertex: np.ndarray, points: np.ndarray) -> np.ndarray:
-        """Value of vertex ``vertex[i]``'s polynomial at ``points[i]``: ``(n, d)``."""
+        """Value of vertex ``vertex[i]``'s polynomial at ``points[i]``: ``(n, d)``
+        (grouped form: ``points (m, p, 2)``, ``vertex (m,)`` gives ``(m, p, d)``)."""
         vertex = np.asarray(vertex, np.int64)
-        X = (np.asarray(points, float) - self.origin[vertex]) / self.scale[vertex, None]
+        points = np.asarray(points, float)
+        if points.ndim == 3:
+            m, p = points.shape[:2]
+            return self.evaluate(np.repeat(vertex, p), points.reshape(-1, 2)).reshape(m, p, -1)
+        X = (points - self.origin[vertex]) / self.scale[vertex, None]
         A = _monomials(X[:, 0], X[:, 1], 3 if self.coef.shape[1] > 5 else 2)
         return self.value[vertex] + np.einsum("nm,nmd->nd", A, self.coef[vertex])
 
@@ -279,9 +284,15 @@ class LocalRBFFit:
     slope: np.ndarray
 
     def evaluate(self, vertex: np.ndarray, points: np.ndarray) -> np.ndarray:
-        """Value of vertex ``vertex[i]``'s interpolant at ``points[i]``: ``(n, d)``."""
+        """Value of vertex ``vertex[i]``'s interpolant at ``points[i]``: ``(n, d)``.
+
+        Grouped form: ``points (m, p, 2)`` with ``vertex (m,)`` gives ``(m, p, d)``,
+        gathering each vertex's centres and coefficients once per group.
+        """
         vertex = np.asarray(vertex, np.int64)
         points = np.asarray(points, float)
+        if points.ndim == 3:
+            return self._evaluate_grouped(vertex, points)
         out = np.empty((vertex.size, self.value.shape[1]))
         step = max(1, 2**21 // max(self.centres.shape[1], 1))
         for s in range(0, vertex.size, step):
@@ -292,6 +303,20 @@ class LocalRBFFit:
             out[s:s + step] = (self.value[v] + np.einsum("ni,nid->nd", X, self.slope[v])
                                + np.einsum("nk,nkd->nd", phi, self.lam[v])
                                + np.einsum("nm,nmd->nd", _poly3(X[:, 0], X[:, 1]), self.coef[v]))
+        return out
+
+    def _evaluate_grouped(self, vertex: np.ndarray, points: np.ndarray) -> np.ndarray:
+        m, p = points.shape[:2]
+        K = self.centres.shape[1]
+        out = np.empty((m, p, self.value.shape[1]))
+        step = max(1, 2**21 // max(p * K, 1))
+        for s in range(0, m, step):
+            v = vertex[s:s + step]
+            X = (points[s:s + step] - self.origin[v][:, None]) / self.scale[v][:, None, None]  # (b, p, 2)
+            D = X[:, :, None, :] - self.centres[v][:, None]  # (b, p, K, 2)
+            phi = _kernel(np.einsum("bpki,bpki->bpk", D, D), self.power[v][:, None, None])
+            out[s:s + step] = (self.value[v][:, None] + X @ self.slope[v] + phi @ self.lam[v]
+                               + _poly3(X[..., 0], X[..., 1]) @ self.coef[v])
         return out
 
 
