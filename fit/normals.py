@@ -16,6 +16,9 @@ fixed width (the nearest ``max_neighbours`` in uv are kept).
 """
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -406,7 +409,9 @@ def local_rbf_fit(
     lam = np.zeros((nv, K, d))
     coef = np.zeros((nv, _NPOLY, d))
     npts = count + 1
-    for s in range(0, nv, RBF_CHUNK):
+
+    def fit_chunk(s: int) -> None:
+        """Fit the vertices ``[s, s + RBF_CHUNK)``; chunks write disjoint rows."""
         sl = np.arange(s, min(s + RBF_CHUNK, nv))
         Xc, vc = X[sl], valid[sl]
         D = Xc[:, :, None, :] - Xc[:, None, :, :]
@@ -443,6 +448,17 @@ def local_rbf_fit(
             power[t] = p
             lam[t] = c[take, :K]
             coef[t] = c[take, K:]
+
+    # numpy's batched solves and elementwise kernels release the GIL: one thread per core
+    starts = range(0, nv, RBF_CHUNK)
+    workers = min(os.cpu_count() or 1, len(starts))
+    if workers > 1:
+        with ThreadPoolExecutor(workers) as pool:
+            for fut in [pool.submit(fit_chunk, s0) for s0 in starts]:
+                fut.result()
+    else:
+        for s0 in starts:
+            fit_chunk(s0)
     # gradient at the vertex: trend + sum_j lam_j p r_j^(p-2) (0 - x_j) + linear coefficients
     r2 = np.einsum("vki,vki->vk", X, X)
     pw = power[:, None]
