@@ -291,7 +291,7 @@ def tessellate(
             gid[:, em] = nv + (s - 1) * ne + slot[e]
         gid[:, im] = base + la[im][None, :] * nf + np.arange(lo, hi)[:, None]
         nt = ltris.shape[0]
-        triangles[lo * nt : hi * nt] = np.take(gid, ltris.ravel(), axis=1).reshape(-1, 3)
+        np.take(gid, ltris.ravel(), axis=1, out=triangles[lo * nt : hi * nt].reshape(hi - lo, 3 * nt))
 
     def edges_finish(lo: int, hi: int, ep: np.ndarray) -> None:
         vb[:, lo:hi] = ep[0].transpose(0, 2, 1)
