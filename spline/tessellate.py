@@ -291,7 +291,8 @@ def tessellate(
             gid[:, em] = nv + (s - 1) * ne + slot[e]
         gid[:, im] = base + la[im][None, :] * nf + np.arange(lo, hi)[:, None]
         nt = ltris.shape[0]
-        np.take(gid, ltris.ravel(), axis=1, out=triangles[lo * nt : hi * nt].reshape(hi - lo, 3 * nt))
+        # mode="clip": valid ids by construction, and "raise" would buffer the output
+        np.take(gid, ltris.ravel(), axis=1, out=triangles[lo * nt : hi * nt].reshape(hi - lo, 3 * nt), mode="clip")
 
     def edges_finish(lo: int, hi: int, ep: np.ndarray) -> None:
         vb[:, lo:hi] = ep[0].transpose(0, 2, 1)
