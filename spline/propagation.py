@@ -365,7 +365,7 @@ def build_space(
     tick("triangulation")
     lay = layout_of(tri)
     F, UV = tri.faces, tri.uv
-    nv, ne, nf = tri.n_vertices, tri.n_edges, tri.n_faces
+    nv = tri.n_vertices
     npts = lay.n_points
     edges = tri.edges
 
@@ -503,7 +503,10 @@ def build_space(
     if ie.size:
         max_coef = max(max_coef, float(np.abs(flip_rec["w"]).max()))
     tick("flips")
-    # ---- free variables
+    # ---- free variables. The per-equation tables are no longer needed: release them
+    # before the CSR assembly, whose arrays set the peak memory.
+    del eq_s, eq_r, eq_e, eq_end, eq_fp, eq_kp, eq_fq, eq_kq, pp, qq, coef, col_p, col_q
+    del corner_v, corner_rank, eq_rank, good_eq, fast, i, cr, c2, q_dep, dep, other, c_dep, c_oth
     free_pts = np.sort(np.concatenate(free_pts)) if free_pts else np.zeros(0, np.int64)
     n_free = 3 * nv + free_pts.size
     free_of_point = np.full(npts, -1, np.int64)
