@@ -1,0 +1,54 @@
+"""The sparse factor backends agree, and auto-selection follows the measured size rule."""
+from __future__ import annotations
+
+import importlib.util
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from trispline.fit import solve
+from trispline.fit.solve import SparseCholesky
+
+HAS_PARDISO = importlib.util.find_spec("pypardiso") is not None
+
+
+def spd(n: int, seed: int = 0) -> sp.csr_matrix:
+    """A sparse SPD matrix with a wide range of diagonal scales (like the fit's normal matrix)."""
+    rng = np.random.default_rng(seed)
+    A = sp.random(n, n, density=4.0 / n, random_state=rng, format="csr")
+    D = sp.diags(10.0 ** rng.uniform(-3, 3, n))
+    return (A.T @ A + D).tocsr()
+
+
+@pytest.mark.parametrize("backend", ["cholespy", "splu", pytest.param(
+    "pardiso", marks=pytest.mark.skipif(not HAS_PARDISO, reason="pypardiso not installed"))])
+def test_backends_solve_to_rounding(backend):
+    H = spd(400)
+    b = np.random.default_rng(1).normal(size=(400, 3))
+    x = SparseCholesky(H, backend).solve(b)
+    np.testing.assert_allclose(H @ x, b, rtol=0, atol=1e-9 * np.abs(b).max())
+    x1 = SparseCholesky(H, backend).solve(b[:, 0])
+    np.testing.assert_allclose(x1, x[:, 0], rtol=1e-9, atol=1e-12)
+
+
+def test_auto_picks_cholespy_for_small_and_pardiso_for_large(monkeypatch):
+    monkeypatch.delenv("TRISPLINE_SOLVER", raising=False)
+    assert SparseCholesky(spd(200)).backend == "cholespy"
+    big = solve._pick_backend(None, solve.PARDISO_MIN_UNKNOWNS)
+    assert big == ("pardiso" if HAS_PARDISO else "cholespy")
+    monkeypatch.setenv("TRISPLINE_SOLVER", "splu")
+    assert SparseCholesky(spd(50)).backend == "splu"
+
+
+@pytest.mark.parametrize("backend", ["cholespy", pytest.param(
+    "pardiso", marks=pytest.mark.skipif(not HAS_PARDISO, reason="pypardiso not installed"))])
+def test_indefinite_matrix_is_refused(backend):
+    A = sp.csr_matrix(np.array([[1.0, 2.0], [2.0, 1.0]]))
+    with pytest.raises((np.linalg.LinAlgError, ValueError)):
+        SparseCholesky(A, backend)
+
+
+def test_unknown_backend_is_refused():
+    with pytest.raises(ValueError, match="unknown solver backend"):
+        SparseCholesky(spd(20), "magic")
