@@ -142,22 +142,37 @@ def _eval_fixed(cols: np.ndarray, bary: np.ndarray) -> tuple[np.ndarray, np.ndar
 CHUNK_FACES = 4096
 
 
-def _run_chunks(n: int, fn, extra: list | None = None) -> None:
-    """Call ``fn(lo, hi)`` over ``[0, n)`` in chunks, plus ``f(*args)`` for each ``(f, args)``
-    in ``extra``, on a thread per core when it pays (numpy releases the GIL)."""
-    extra = extra or []
-    workers = min(os.cpu_count() or 1, 8, max(1, n // CHUNK_FACES))
-    if workers == 1:
-        fn(0, n)
-        for f, args in extra:
-            f(*args)
-        return
-    bounds = np.linspace(0, n, 2 * workers + 1).astype(int)
-    with ThreadPoolExecutor(workers) as pool:
-        futs = [pool.submit(f, *args) for f, args in extra]
-        futs += [pool.submit(fn, int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
-        for fut in futs:
-            fut.result()
+class _Workers:
+    """Run tasks on a thread per core when the mesh is large enough, else inline.
+
+    ``chunks`` splits the faces for per-face tasks; leaving the ``with`` block waits
+    for every task and re-raises the first error.
+    """
+
+    def __init__(self, n: int) -> None:
+        workers = min(os.cpu_count() or 1, 8, max(1, n // CHUNK_FACES))
+        self._pool = ThreadPoolExecutor(workers) if workers > 1 else None
+        bounds = np.linspace(0, n, 2 * workers + 1).astype(int) if workers > 1 else np.array([0, n])
+        self.chunks = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+        self._futures = []
+
+    def submit(self, fn, *args) -> None:
+        if self._pool is None:
+            fn(*args)
+        else:
+            self._futures.append(self._pool.submit(fn, *args))
+
+    def __enter__(self) -> "_Workers":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._pool is None:
+            return
+        try:
+            for fut in self._futures:
+                fut.result()
+        finally:
+            self._pool.shutdown(wait=True)
 
 
 def tessellate(
@@ -197,23 +212,8 @@ def tessellate(
     vertices = np.empty((m, d))
     normals = np.empty((m, 3 if d == 3 else 0))
     uv_pts = np.empty((m, 2))
-    cols = np.ascontiguousarray(ctrl.transpose(1, 2, 0))  # (21, d, F) component-major
-
-    # --- corners: exact corner points; normals from the two star points
-    first = np.full(nv, -1, np.int64)
-    corners = np.arange(3 * nf)[::-1]
-    first[F.ravel()[corners]] = corners  # the first corner of each vertex wins
-    cf, ck = first // 3, first % 3
-    vertices[:nv] = ctrl[cf, CORNER[ck]]
-    uv_pts[:nv] = UV
-    if d == 3:
-        z = vertices[:nv].T
-        s1 = ctrl[cf, STAR[ck, (ck + 1) % 3]].T - z
-        s2 = ctrl[cf, STAR[ck, (ck + 2) % 3]].T - z
-        normals[:nv] = _cross_normalise(s1, s2).T
-
-    # --- edges: r - 1 samples on an owner face, from its local k+1 to k+2; edges are
-    # stored grouped by that local index k (slot order), each group one product
+    # --- edge ownership: r - 1 samples per edge on an owner face, from its local k+1 to
+    # k+2; edges are stored grouped by that local index k (slot order)
     ef, eo = tri.edge_faces, tri.edge_opposite
     own = np.where(ef[:, 0] >= 0, 0, 1)
     f0 = ef[np.arange(ne), own]
@@ -223,65 +223,20 @@ def tessellate(
     slot[order] = np.arange(ne)
     start = F[f0, (k0 + 1) % 3]
     end = F[f0, (k0 + 2) % 3]
-    edge_jobs: list[tuple[int, int, np.ndarray]] = []
-    if r > 1:
-        t = np.arange(1, r) / r
-        vb = vertices[nv : nv + (r - 1) * ne].reshape(r - 1, ne, d)
-        nb = normals[nv : nv + (r - 1) * ne].reshape(r - 1, ne, normals.shape[1])
-        bounds = np.searchsorted(k0[order], [0, 1, 2, 3])
-        for k in range(3):  # three relabelled sample sets, not a per-face loop
-            lo, hi = bounds[k], bounds[k + 1]
-            if hi == lo:
-                continue
-            eb = np.zeros((r - 1, 3))
-            eb[:, (k + 1) % 3] = 1.0 - t
-            eb[:, (k + 2) % 3] = t
-            # the BLAS products here; normals and copies go to the threads below
-            flat_e = np.take(cols, f0[order[lo:hi]], axis=2).reshape(NCTRL, -1)
-            if d == 3:
-                dB = basis_gradient_bary(eb)
-                stack_e = np.concatenate([basis(eb), dB[1] - dB[0], dB[2] - dB[0]])
-                edge_jobs.append((lo, hi, (stack_e @ flat_e).reshape(3, r - 1, 3, hi - lo)))
-            else:
-                vb[:, lo:hi] = (basis(eb) @ flat_e).reshape(r - 1, d, hi - lo).transpose(0, 2, 1)
-        uv_pts[nv : nv + (r - 1) * ne] = (
-            (1.0 - t)[:, None, None] * UV[start[order]][None] + t[:, None, None] * UV[end[order]][None]
-        ).reshape(-1, 2)
 
-    # --- interior samples and the per-face vertex ids: independent per face, so they
-    # run on face chunks in threads (numpy releases the GIL in these kernels)
+    # --- the per-face vertex ids need no surface values: they start at once on face
+    # chunks in threads (numpy releases the GIL) while this thread evaluates
     base = nv + (r - 1) * ne
     n = jk.shape[0]
     idx_t = np.int32 if m < 2**31 - 1 else np.int64
-    triangles = np.empty((nf * ltris.shape[0], 3), idx_t)
-    ib = np.column_stack([r - jk[inner].sum(1), jk[inner, 0], jk[inner, 1]]) / r if n_inner else None
+    nt = ltris.shape[0]
+    triangles = np.empty((nf * nt, 3), idx_t)
     cm = np.flatnonzero(kind == 0)
     em = np.flatnonzero(kind == 1)
     im = np.flatnonzero(inner)
     ke, se = la[em], lb[em]
-    vin = vertices[base:].reshape(n_inner, nf, d)
-    nin = normals[base:].reshape(n_inner, nf, normals.shape[1])
-    uin = uv_pts[base:].reshape(n_inner, nf, 2)
 
-    # one BLAS product for all faces (BLAS threads itself; calling it from several
-    # Python threads oversubscribes the cores), then per-chunk normals and copies
-    if n_inner:
-        flat = cols.reshape(NCTRL, d * nf)
-        if d == 3:
-            dB = basis_gradient_bary(ib)
-            stack = np.concatenate([basis(ib), dB[1] - dB[0], dB[2] - dB[0]])  # (3 n_inner, 21)
-            prod = (stack @ flat).reshape(3, n_inner, 3, nf)
-        else:
-            prod = (basis(ib) @ flat).reshape(1, n_inner, d, nf)
-        # uv of the interior samples: a matmul (an einsum here took 15x longer)
-        uin[...] = (ib @ UV[F].transpose(1, 0, 2).reshape(3, -1)).reshape(n_inner, nf, 2)
-
-    def faces_chunk(lo: int, hi: int) -> None:
-        if n_inner:
-            vin[:, lo:hi] = prod[0, :, :, lo:hi].transpose(0, 2, 1)
-            if d == 3:
-                nrm = _cross_normalise(prod[1, :, :, lo:hi].transpose(1, 0, 2), prod[2, :, :, lo:hi].transpose(1, 0, 2))
-                nin[:, lo:hi] = nrm.transpose(1, 2, 0)
+    def ids_chunk(lo: int, hi: int) -> None:
         gid = np.empty((hi - lo, n), idx_t)
         gid[:, cm] = F[lo:hi, la[cm]]
         if em.size:
@@ -290,14 +245,81 @@ def tessellate(
             s = np.where(forward, se[None, :], r - se[None, :])
             gid[:, em] = nv + (s - 1) * ne + slot[e]
         gid[:, im] = base + la[im][None, :] * nf + np.arange(lo, hi)[:, None]
-        nt = ltris.shape[0]
         # mode="clip": valid ids by construction, and "raise" would buffer the output
         np.take(gid, ltris.ravel(), axis=1, out=triangles[lo * nt : hi * nt].reshape(hi - lo, 3 * nt), mode="clip")
 
-    def edges_finish(lo: int, hi: int, ep: np.ndarray) -> None:
-        vb[:, lo:hi] = ep[0].transpose(0, 2, 1)
-        nrm = _cross_normalise(ep[1].transpose(1, 0, 2), ep[2].transpose(1, 0, 2))
-        nb[:, lo:hi] = nrm.transpose(1, 2, 0)
+    with _Workers(nf) as work:
+        for lo, hi in work.chunks:
+            work.submit(ids_chunk, lo, hi)
+        cols = np.ascontiguousarray(ctrl.transpose(1, 2, 0))  # (21, d, F) component-major
 
-    _run_chunks(nf, faces_chunk, [(edges_finish, job) for job in edge_jobs])
+        # --- corners: exact corner points; normals from the two star points
+        first = np.full(nv, -1, np.int64)
+        corners = np.arange(3 * nf)[::-1]
+        first[F.ravel()[corners]] = corners  # the first corner of each vertex wins
+        cf, ck = first // 3, first % 3
+        vertices[:nv] = ctrl[cf, CORNER[ck]]
+        uv_pts[:nv] = UV
+        if d == 3:
+            z = vertices[:nv].T
+            s1 = ctrl[cf, STAR[ck, (ck + 1) % 3]].T - z
+            s2 = ctrl[cf, STAR[ck, (ck + 2) % 3]].T - z
+            normals[:nv] = _cross_normalise(s1, s2).T
+
+        # --- edges: one BLAS product per group here; normals and copies in the threads
+        if r > 1:
+            t = np.arange(1, r) / r
+            vb = vertices[nv:base].reshape(r - 1, ne, d)
+            nb = normals[nv:base].reshape(r - 1, ne, normals.shape[1])
+
+            def edges_finish(lo: int, hi: int, ep: np.ndarray) -> None:
+                vb[:, lo:hi] = ep[0].transpose(0, 2, 1)
+                nrm = _cross_normalise(ep[1].transpose(1, 0, 2), ep[2].transpose(1, 0, 2))
+                nb[:, lo:hi] = nrm.transpose(1, 2, 0)
+
+            bounds = np.searchsorted(k0[order], [0, 1, 2, 3])
+            for k in range(3):  # three relabelled sample sets, not a per-face loop
+                lo, hi = bounds[k], bounds[k + 1]
+                if hi == lo:
+                    continue
+                eb = np.zeros((r - 1, 3))
+                eb[:, (k + 1) % 3] = 1.0 - t
+                eb[:, (k + 2) % 3] = t
+                flat_e = np.take(cols, f0[order[lo:hi]], axis=2).reshape(NCTRL, -1)
+                if d == 3:
+                    dB = basis_gradient_bary(eb)
+                    stack_e = np.concatenate([basis(eb), dB[1] - dB[0], dB[2] - dB[0]])
+                    work.submit(edges_finish, lo, hi, (stack_e @ flat_e).reshape(3, r - 1, 3, hi - lo))
+                else:
+                    vb[:, lo:hi] = (basis(eb) @ flat_e).reshape(r - 1, d, hi - lo).transpose(0, 2, 1)
+            uv_pts[nv:base] = (
+                (1.0 - t)[:, None, None] * UV[start[order]][None] + t[:, None, None] * UV[end[order]][None]
+            ).reshape(-1, 2)
+
+        # --- interior samples: one BLAS product for all faces (BLAS threads itself;
+        # calling it from several Python threads oversubscribes the cores), then
+        # per-chunk normals and copies in the threads
+        if n_inner:
+            ib = np.column_stack([r - jk[inner].sum(1), jk[inner, 0], jk[inner, 1]]) / r
+            vin = vertices[base:].reshape(n_inner, nf, d)
+            nin = normals[base:].reshape(n_inner, nf, normals.shape[1])
+            flat = cols.reshape(NCTRL, d * nf)
+            if d == 3:
+                dB = basis_gradient_bary(ib)
+                stack = np.concatenate([basis(ib), dB[1] - dB[0], dB[2] - dB[0]])  # (3 n_inner, 21)
+                prod = (stack @ flat).reshape(3, n_inner, 3, nf)
+            else:
+                prod = (basis(ib) @ flat).reshape(1, n_inner, d, nf)
+            # uv of the interior samples: a matmul (an einsum here took 15x longer)
+            uv_pts[base:] = (ib @ UV[F].transpose(1, 0, 2).reshape(3, -1)).reshape(-1, 2)
+
+            def values_chunk(lo: int, hi: int) -> None:
+                vin[:, lo:hi] = prod[0, :, :, lo:hi].transpose(0, 2, 1)
+                if d == 3:
+                    nrm = _cross_normalise(prod[1, :, :, lo:hi].transpose(1, 0, 2),
+                                           prod[2, :, :, lo:hi].transpose(1, 0, 2))
+                    nin[:, lo:hi] = nrm.transpose(1, 2, 0)
+
+            for lo, hi in work.chunks:
+                work.submit(values_chunk, lo, hi)
     return Tessellation(vertices, triangles, normals, uv_pts)
