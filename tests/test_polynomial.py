@@ -13,17 +13,9 @@ from trispline.spline._index import EXPONENTS
 from trispline.spline.bernstein import basis
 from trispline.spline.errors import InputError
 from trispline.spline.polynomial import polynomial_control_net, random_polynomial
+from triangulations import SMALL_DOMAINS
 
-DOMAINS = {
-    "lone": lambda s: domains.lone_triangle(),
-    "delaunay": lambda s: domains.random_delaunay(30, seed=s),
-    "holes": lambda s: domains.random_delaunay(80, holes=2, seed=s),
-    "lshape": lambda s: domains.l_shape(40, seed=s),
-    "annulus": lambda s: domains.annulus(2, 12),
-    "slivers": lambda s: domains.slivers(6, 150.0),
-    "crisscross": lambda s: domains.grid(3, diagonal="crisscross"),
-    "fan": lambda s: domains.fan(3 + s % 10),
-}
+DOMAINS = {name: make for name, make in SMALL_DOMAINS.items() if name != "grid"}
 
 
 def _naive_eval(ctrl_f: np.ndarray, bary: np.ndarray) -> np.ndarray:
