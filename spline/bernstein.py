@@ -65,23 +65,6 @@ def basis(bary: np.ndarray, order: tuple[int, int, int] = (0, 0, 0)) -> np.ndarr
     return out
 
 
-def basis_directional(bary: np.ndarray, dirs: np.ndarray) -> np.ndarray:
-    """First derivative along barycentric directions.
-
-    Parameters
-    ----------
-    bary : (n, 3)
-    dirs : (m, 3)
-        Barycentric direction vectors (each sums to zero for a domain direction).
-
-    Returns
-    -------
-    (m, n, 21)
-    """
-    d = np.stack([basis(bary, o) for o in ((1, 0, 0), (0, 1, 0), (0, 0, 1))])  # (3, n, 21)
-    return np.einsum("mc,cnk->mnk", np.asarray(dirs, float), d)
-
-
 def basis_gradient_bary(bary: np.ndarray) -> np.ndarray:
     """First barycentric partials: ``(3, n, 21)`` for ``d/dl_a, d/dl_b, d/dl_c``."""
     return np.stack([basis(bary, o) for o in ((1, 0, 0), (0, 1, 0), (0, 0, 1))])

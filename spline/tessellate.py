@@ -114,28 +114,29 @@ def _cross_normalise(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return c
 
 
-def _eval_fixed(cols: np.ndarray, bary: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
-    """Evaluate patches stored component-major at shared barycentric samples.
+def _products(bary: np.ndarray, flat: np.ndarray, d: int) -> np.ndarray:
+    """Values (and, for ``d == 3``, the two tangents) of patches at shared samples.
 
     Parameters
     ----------
-    cols : (21, d, P) control points of ``P`` patches
-    bary : (n, 3) samples
+    bary : (n, 3) samples; flat : (21, d * P) component-major control points of P patches
 
     Returns
     -------
-    values : (n, d, P); normals : (n, 3, P) for d == 3, else None
+    (k, n, d, P) with k = 3 (value, d/dl_b - d/dl_a, d/dl_c - d/dl_a) for d == 3, else 1
     """
-    n = bary.shape[0]
-    _, d, P = cols.shape
-    flat = cols.reshape(NCTRL, d * P)
-    if d != 3:
-        return (basis(bary) @ flat).reshape(n, d, P), None
-    dB = basis_gradient_bary(bary)
-    stack = np.concatenate([basis(bary), dB[1] - dB[0], dB[2] - dB[0]])  # (3n, 21)
-    out = (stack @ flat).reshape(3, n, 3, P)
-    normals = _cross_normalise(out[1].transpose(1, 0, 2), out[2].transpose(1, 0, 2))  # (3, n, P)
-    return out[0], normals.transpose(1, 0, 2)
+    rows = basis(bary)
+    if d == 3:
+        dB = basis_gradient_bary(bary)
+        rows = np.concatenate([rows, dB[1] - dB[0], dB[2] - dB[0]])  # (3n, 21)
+    return (rows @ flat).reshape(-1, bary.shape[0], d, flat.shape[1] // d)
+
+
+def _write_samples(values: np.ndarray, normals: np.ndarray, prod: np.ndarray) -> None:
+    """Points ``values (n, P, d)`` and unit normals ``normals (n, P, 3)`` from ``prod (k, n, d, P)``."""
+    values[...] = prod[0].transpose(0, 2, 1)
+    if prod.shape[0] == 3:
+        normals[...] = _cross_normalise(prod[1].transpose(1, 0, 2), prod[2].transpose(1, 0, 2)).transpose(1, 2, 0)
 
 
 #: Faces per chunk below which tessellation stays on one thread.
@@ -271,12 +272,6 @@ def tessellate(
             t = np.arange(1, r) / r
             vb = vertices[nv:base].reshape(r - 1, ne, d)
             nb = normals[nv:base].reshape(r - 1, ne, normals.shape[1])
-
-            def edges_finish(lo: int, hi: int, ep: np.ndarray) -> None:
-                vb[:, lo:hi] = ep[0].transpose(0, 2, 1)
-                nrm = _cross_normalise(ep[1].transpose(1, 0, 2), ep[2].transpose(1, 0, 2))
-                nb[:, lo:hi] = nrm.transpose(1, 2, 0)
-
             bounds = np.searchsorted(k0[order], [0, 1, 2, 3])
             for k in range(3):  # three relabelled sample sets, not a per-face loop
                 lo, hi = bounds[k], bounds[k + 1]
@@ -285,13 +280,8 @@ def tessellate(
                 eb = np.zeros((r - 1, 3))
                 eb[:, (k + 1) % 3] = 1.0 - t
                 eb[:, (k + 2) % 3] = t
-                flat_e = np.take(cols, f0[order[lo:hi]], axis=2).reshape(NCTRL, -1)
-                if d == 3:
-                    dB = basis_gradient_bary(eb)
-                    stack_e = np.concatenate([basis(eb), dB[1] - dB[0], dB[2] - dB[0]])
-                    work.submit(edges_finish, lo, hi, (stack_e @ flat_e).reshape(3, r - 1, 3, hi - lo))
-                else:
-                    vb[:, lo:hi] = (basis(eb) @ flat_e).reshape(r - 1, d, hi - lo).transpose(0, 2, 1)
+                ep = _products(eb, np.take(cols, f0[order[lo:hi]], axis=2).reshape(NCTRL, -1), d)
+                work.submit(_write_samples, vb[:, lo:hi], nb[:, lo:hi], ep)
             uv_pts[nv:base] = (
                 (1.0 - t)[:, None, None] * UV[start[order]][None] + t[:, None, None] * UV[end[order]][None]
             ).reshape(-1, 2)
@@ -303,23 +293,10 @@ def tessellate(
             ib = np.column_stack([r - jk[inner].sum(1), jk[inner, 0], jk[inner, 1]]) / r
             vin = vertices[base:].reshape(n_inner, nf, d)
             nin = normals[base:].reshape(n_inner, nf, normals.shape[1])
-            flat = cols.reshape(NCTRL, d * nf)
-            if d == 3:
-                dB = basis_gradient_bary(ib)
-                stack = np.concatenate([basis(ib), dB[1] - dB[0], dB[2] - dB[0]])  # (3 n_inner, 21)
-                prod = (stack @ flat).reshape(3, n_inner, 3, nf)
-            else:
-                prod = (basis(ib) @ flat).reshape(1, n_inner, d, nf)
+            prod = _products(ib, cols.reshape(NCTRL, d * nf), d)
             # uv of the interior samples: a matmul (an einsum here took 15x longer)
             uv_pts[base:] = (ib @ UV[F].transpose(1, 0, 2).reshape(3, -1)).reshape(-1, 2)
 
-            def values_chunk(lo: int, hi: int) -> None:
-                vin[:, lo:hi] = prod[0, :, :, lo:hi].transpose(0, 2, 1)
-                if d == 3:
-                    nrm = _cross_normalise(prod[1, :, :, lo:hi].transpose(1, 0, 2),
-                                           prod[2, :, :, lo:hi].transpose(1, 0, 2))
-                    nin[:, lo:hi] = nrm.transpose(1, 2, 0)
-
             for lo, hi in work.chunks:
-                work.submit(values_chunk, lo, hi)
+                work.submit(_write_samples, vin[:, lo:hi], nin[:, lo:hi], prod[..., lo:hi])
     return Tessellation(vertices, triangles, normals, uv_pts)
