@@ -90,8 +90,3 @@ def point_index(tri: Triangulation) -> np.ndarray:
             out[:, STAR[k, m]] = lay.star(e, end)
             out[:, MID[k, m]] = lay.mid(e, end)
     return out
-
-
-def gather(points: np.ndarray, index: np.ndarray) -> np.ndarray:
-    """Per-patch control points ``(F, 21, d)`` from global points ``(npoints, d)``."""
-    return np.asarray(points)[index]

@@ -408,7 +408,7 @@ def build_space(
     # ---- per-vertex systems. Fast path: where every equation's middle-point
     # coefficient passes the pivot preference, weighted complete pivoting would pick
     # all middle points (a middle column lives in one row only), so no elimination.
-    good_eq = np.abs(coef[:, 2]) * 1.0 >= inner_weight * np.maximum(np.abs(coef[:, 0]), np.abs(coef[:, 1]))
+    good_eq = np.abs(coef[:, 2]) >= inner_weight * np.maximum(np.abs(coef[:, 0]), np.abs(coef[:, 1]))
     good_eq &= np.abs(coef[:, 2]) > singular_tol
     bad_v = np.zeros(nv, bool)
     bad_v[eq_s[~good_eq]] = True
