@@ -296,17 +296,7 @@ class LocalRBFFit:
         points = np.asarray(points, float)
         if points.ndim == 3:
             return self._evaluate_grouped(vertex, points)
-        out = np.empty((vertex.size, self.value.shape[1]))
-        step = max(1, 2**21 // max(self.centres.shape[1], 1))
-        for s in range(0, vertex.size, step):
-            v = vertex[s:s + step]
-            X = (points[s:s + step] - self.origin[v]) / self.scale[v, None]
-            D = X[:, None, :] - self.centres[v]
-            phi = _kernel(np.einsum("nki,nki->nk", D, D), self.power[v, None])
-            out[s:s + step] = (self.value[v] + np.einsum("ni,nid->nd", X, self.slope[v])
-                               + np.einsum("nk,nkd->nd", phi, self.lam[v])
-                               + np.einsum("nm,nmd->nd", _poly3(X[:, 0], X[:, 1]), self.coef[v]))
-        return out
+        return self._evaluate_grouped(vertex, points[:, None, :])[:, 0]
 
     def _evaluate_grouped(self, vertex: np.ndarray, points: np.ndarray) -> np.ndarray:
         m, p = points.shape[:2]
