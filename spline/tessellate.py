@@ -15,11 +15,13 @@ tangent derivatives (at corners, of the two star-point differences).
 
 Vertex numbering: domain vertices first (vertex ``v`` is tessellation vertex
 ``v``), then edge samples ``V + (s - 1) E + slot(e)`` (edges in an internal
-order), then interior samples ``V + (r - 1) E + q F + f``. Everything is a few BLAS products over all faces;
-there is no per-face Python loop.
+order), then interior samples ``V + (r - 1) E + q F + f``. Samples are evaluated by one BLAS
+product per range of about ``TASK_PATCHES`` patches (so the temporaries stay in cache), the
+ranges run on a thread per core; there is no per-face Python loop.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 from concurrent.futures import ThreadPoolExecutor
 
@@ -114,26 +116,28 @@ def _cross_normalise(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return c
 
 
-def _products(bary: np.ndarray, flat: np.ndarray, d: int) -> np.ndarray:
-    """Values (and, for ``d == 3``, the two tangents) of patches at shared samples.
+def _basis_rows(bary: np.ndarray, d: int) -> np.ndarray:
+    """Rows of the sample products: values and, for ``d == 3``, two tangents.
 
-    Parameters
-    ----------
-    bary : (n, 3) samples; flat : (21, d * P) component-major control points of P patches
-
-    Returns
-    -------
-    (k, n, d, P) with k = 3 (value, d/dl_b - d/dl_a, d/dl_c - d/dl_a) for d == 3, else 1
+    Returns ``(k n, 21)`` with k = 3 (value, d/dl_b - d/dl_a, d/dl_c - d/dl_a) for d == 3, else 1.
     """
     rows = basis(bary)
     if d == 3:
         dB = basis_gradient_bary(bary)
-        rows = np.concatenate([rows, dB[1] - dB[0], dB[2] - dB[0]])  # (3n, 21)
-    return (rows @ flat).reshape(-1, bary.shape[0], d, flat.shape[1] // d)
+        rows = np.concatenate([rows, dB[1] - dB[0], dB[2] - dB[0]])
+    return rows
 
 
-def _write_samples(values: np.ndarray, normals: np.ndarray, prod: np.ndarray) -> None:
-    """Points ``values (n, P, d)`` and unit normals ``normals (n, P, 3)`` from ``prod (k, n, d, P)``."""
+def _write_samples(values: np.ndarray, normals: np.ndarray, rows: np.ndarray, ctrl: np.ndarray) -> None:
+    """Evaluate ``ctrl (P, 21, d)`` at the samples of ``rows`` and write them.
+
+    ``values (n, P, d)`` receives the points and ``normals (n, P, 3)`` the unit
+    normals. One BLAS product over the P patches, in component-major layout.
+    """
+    P, _, d = ctrl.shape
+    n = values.shape[0]
+    cols = np.ascontiguousarray(ctrl.transpose(1, 2, 0)).reshape(NCTRL, d * P)
+    prod = (rows @ cols).reshape(-1, n, d, P)
     values[...] = prod[0].transpose(0, 2, 1)
     if prod.shape[0] == 3:
         normals[...] = _cross_normalise(prod[1].transpose(1, 0, 2), prod[2].transpose(1, 0, 2)).transpose(1, 2, 0)
@@ -141,21 +145,52 @@ def _write_samples(values: np.ndarray, normals: np.ndarray, prod: np.ndarray) ->
 
 #: Faces per chunk below which tessellation stays on one thread.
 CHUNK_FACES = 4096
+#: Patches per evaluation task: keeps each task's temporaries in cache.
+TASK_PATCHES = 8192
+
+_blas_controller = None
+
+
+def _single_threaded_blas():
+    """Context in which BLAS runs on the calling thread only.
+
+    The evaluation tasks call BLAS from several Python threads at once; a BLAS
+    that threads each call as well oversubscribes the cores (measured slower).
+    """
+    global _blas_controller
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:  # pragma: no cover - threadpoolctl is a dependency
+        return contextlib.nullcontext()
+    if _blas_controller is None:
+        _blas_controller = ThreadpoolController()
+    return _blas_controller.limit(limits=1, user_api="blas")
 
 
 class _Workers:
     """Run tasks on a thread per core when the mesh is large enough, else inline.
 
     ``chunks`` splits the faces for per-face tasks; leaving the ``with`` block waits
-    for every task and re-raises the first error.
+    for every task and re-raises the first error. While tasks run in threads, BLAS
+    is limited to one thread per call.
     """
 
     def __init__(self, n: int) -> None:
         workers = min(os.cpu_count() or 1, 8, max(1, n // CHUNK_FACES))
         self._pool = ThreadPoolExecutor(workers) if workers > 1 else None
-        bounds = np.linspace(0, n, 2 * workers + 1).astype(int) if workers > 1 else np.array([0, n])
-        self.chunks = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+        self._blas = _single_threaded_blas() if workers > 1 else contextlib.nullcontext()
+        self.chunks = self.split(n, 2 * workers if workers > 1 else 1)
         self._futures = []
+
+    @staticmethod
+    def split(n: int, parts: int) -> list[tuple[int, int]]:
+        bounds = np.linspace(0, n, max(1, parts) + 1).astype(int)
+        return [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+
+    def task_chunks(self, n: int) -> list[tuple[int, int]]:
+        """Ranges of at most about ``TASK_PATCHES``, at least two per worker."""
+        parts = max(-(-n // TASK_PATCHES), len(self.chunks) if self._pool is not None else 1)
+        return self.split(n, parts)
 
     def submit(self, fn, *args) -> None:
         if self._pool is None:
@@ -164,16 +199,19 @@ class _Workers:
             self._futures.append(self._pool.submit(fn, *args))
 
     def __enter__(self) -> "_Workers":
+        self._blas.__enter__()
         return self
 
     def __exit__(self, *exc) -> None:
-        if self._pool is None:
-            return
         try:
-            for fut in self._futures:
-                fut.result()
+            if self._pool is not None:
+                try:
+                    for fut in self._futures:
+                        fut.result()
+                finally:
+                    self._pool.shutdown(wait=True)
         finally:
-            self._pool.shutdown(wait=True)
+            self._blas.__exit__(None, None, None)
 
 
 def tessellate(
@@ -252,9 +290,47 @@ def tessellate(
     with _Workers(nf) as work:
         for lo, hi in work.chunks:
             work.submit(ids_chunk, lo, hi)
-        cols = np.ascontiguousarray(ctrl.transpose(1, 2, 0))  # (21, d, F) component-major
 
-        # --- corners: exact corner points; normals from the two star points
+        # --- interior samples: per face range, one BLAS product, points and normals
+        if n_inner:
+            ib = np.column_stack([r - jk[inner].sum(1), jk[inner, 0], jk[inner, 1]]) / r
+            rows_in = _basis_rows(ib, d)
+            vin = vertices[base:].reshape(n_inner, nf, d)
+            nin = normals[base:].reshape(n_inner, nf, normals.shape[1])
+            uin = uv_pts[base:].reshape(n_inner, nf, 2)
+
+            def interior_chunk(lo: int, hi: int) -> None:
+                _write_samples(vin[:, lo:hi], nin[:, lo:hi], rows_in, ctrl[lo:hi])
+                # uv of the samples: a matmul (an einsum here took 15x longer)
+                corner_uv = UV[F[lo:hi]].transpose(1, 0, 2).reshape(3, -1)
+                uin[:, lo:hi] = (ib @ corner_uv).reshape(n_inner, hi - lo, 2)
+
+            for lo, hi in work.task_chunks(nf):
+                work.submit(interior_chunk, lo, hi)
+
+        # --- edges: r - 1 samples on the owner face, one sample set per local index k
+        if r > 1:
+            t = np.arange(1, r) / r
+            vb = vertices[nv:base].reshape(r - 1, ne, d)
+            nb = normals[nv:base].reshape(r - 1, ne, normals.shape[1])
+            ub = uv_pts[nv:base].reshape(r - 1, ne, 2)
+            f_sorted, start_sorted, end_sorted = f0[order], start[order], end[order]
+            bounds = np.searchsorted(k0[order], [0, 1, 2, 3])
+
+            def edge_chunk(rows: np.ndarray, lo: int, hi: int) -> None:
+                _write_samples(vb[:, lo:hi], nb[:, lo:hi], rows, ctrl[f_sorted[lo:hi]])
+                a, b = UV[start_sorted[lo:hi]], UV[end_sorted[lo:hi]]
+                ub[:, lo:hi] = (1.0 - t)[:, None, None] * a[None] + t[:, None, None] * b[None]
+
+            for k in range(3):  # three relabelled sample sets, not a per-face loop
+                eb = np.zeros((r - 1, 3))
+                eb[:, (k + 1) % 3] = 1.0 - t
+                eb[:, (k + 2) % 3] = t
+                rows_e = _basis_rows(eb, d)
+                for lo, hi in work.task_chunks(int(bounds[k + 1] - bounds[k])):
+                    work.submit(edge_chunk, rows_e, int(bounds[k]) + lo, int(bounds[k]) + hi)
+
+        # --- corners (here, while the tasks run): exact corner points; normals from the star points
         first = np.full(nv, -1, np.int64)
         corners = np.arange(3 * nf)[::-1]
         first[F.ravel()[corners]] = corners  # the first corner of each vertex wins
@@ -266,37 +342,4 @@ def tessellate(
             s1 = ctrl[cf, STAR[ck, (ck + 1) % 3]].T - z
             s2 = ctrl[cf, STAR[ck, (ck + 2) % 3]].T - z
             normals[:nv] = _cross_normalise(s1, s2).T
-
-        # --- edges: one BLAS product per group here; normals and copies in the threads
-        if r > 1:
-            t = np.arange(1, r) / r
-            vb = vertices[nv:base].reshape(r - 1, ne, d)
-            nb = normals[nv:base].reshape(r - 1, ne, normals.shape[1])
-            bounds = np.searchsorted(k0[order], [0, 1, 2, 3])
-            for k in range(3):  # three relabelled sample sets, not a per-face loop
-                lo, hi = bounds[k], bounds[k + 1]
-                if hi == lo:
-                    continue
-                eb = np.zeros((r - 1, 3))
-                eb[:, (k + 1) % 3] = 1.0 - t
-                eb[:, (k + 2) % 3] = t
-                ep = _products(eb, np.take(cols, f0[order[lo:hi]], axis=2).reshape(NCTRL, -1), d)
-                work.submit(_write_samples, vb[:, lo:hi], nb[:, lo:hi], ep)
-            uv_pts[nv:base] = (
-                (1.0 - t)[:, None, None] * UV[start[order]][None] + t[:, None, None] * UV[end[order]][None]
-            ).reshape(-1, 2)
-
-        # --- interior samples: one BLAS product for all faces (BLAS threads itself;
-        # calling it from several Python threads oversubscribes the cores), then
-        # per-chunk normals and copies in the threads
-        if n_inner:
-            ib = np.column_stack([r - jk[inner].sum(1), jk[inner, 0], jk[inner, 1]]) / r
-            vin = vertices[base:].reshape(n_inner, nf, d)
-            nin = normals[base:].reshape(n_inner, nf, normals.shape[1])
-            prod = _products(ib, cols.reshape(NCTRL, d * nf), d)
-            # uv of the interior samples: a matmul (an einsum here took 15x longer)
-            uv_pts[base:] = (ib @ UV[F].transpose(1, 0, 2).reshape(3, -1)).reshape(-1, 2)
-
-            for lo, hi in work.chunks:
-                work.submit(_write_samples, vin[:, lo:hi], nin[:, lo:hi], prod[..., lo:hi])
     return Tessellation(vertices, triangles, normals, uv_pts)

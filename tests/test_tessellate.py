@@ -140,3 +140,27 @@ def test_bad_resolution_and_ctrl_raise():
             tessellate(uv, faces, ctrl, bad)
     with pytest.raises(InputError, match="control points"):
         tessellate(uv, faces, ctrl[:-1], 2)
+
+
+def test_threaded_tasks_equal_the_single_threaded_tessellation(monkeypatch):
+    """Large meshes run in face-range tasks on threads: same mesh as one inline pass."""
+    import importlib
+
+    from threadpoolctl import threadpool_info
+
+    tess = importlib.import_module("trispline.spline.tessellate")  # the package re-exports the function
+
+    uv, faces = domains.random_delaunay(11_000, seed=3)  # ~22k faces: several tasks per sample set
+    func = random_polynomial(5, 3, 7)
+    ctrl = polynomial_control_net(uv, faces, func)
+    blas_before = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+    monkeypatch.setattr(tess, "TASK_PATCHES", 3000)
+    threaded = tessellate(uv, faces, ctrl, 6)
+    assert [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"] == blas_before
+    monkeypatch.setattr(tess, "CHUNK_FACES", 10**9)  # one worker: everything inline
+    inline = tessellate(uv, faces, ctrl, 6)
+    np.testing.assert_array_equal(threaded.triangles, inline.triangles)
+    np.testing.assert_array_equal(threaded.uv, inline.uv)
+    np.testing.assert_allclose(threaded.vertices, inline.vertices, atol=1e-13)
+    np.testing.assert_allclose(threaded.normals, inline.normals, atol=1e-12)
+    np.testing.assert_allclose(threaded.vertices, func(threaded.uv), atol=1e-11)
