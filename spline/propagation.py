@@ -202,14 +202,20 @@ def _compose(lay: NetLayout, nv: int, edges: np.ndarray, UV: np.ndarray, frame_s
     are gathered from the rows already written. No COO sort, no sparse products.
     """
     npts = lay.n_points
-    ne = edges.shape[0]
-    star_s = np.empty(2 * ne, np.int64)
-    star_s[0::2], star_s[1::2] = edges[:, 0], edges[:, 1]
-    star_w = np.empty(2 * ne, np.int64)
-    star_w[0::2], star_w[1::2] = edges[:, 1], edges[:, 0]
-    ab = (UV[star_w] - UV[star_s]) / frame_scale[star_s, None]
-    star_cols = np.column_stack([star_s, nv + 2 * star_s, nv + 2 * star_s + 1])
-    star_vals = np.column_stack([1.0 - ab[:, 0] - ab[:, 1], ab[:, 0], ab[:, 1]])
+    # star 2e + end sits at vertex s = edges[e, end] towards w = edges[e, 1 - end]
+    star_s, star_w = edges.reshape(-1), edges[:, ::-1].reshape(-1)
+    star_vals = np.empty((star_s.size, 3))
+    np.subtract(UV[star_w], UV[star_s], out=star_vals[:, 1:])
+    star_vals[:, 1:] /= frame_scale[star_s, None]
+    np.subtract(1.0, star_vals[:, 1], out=star_vals[:, 0])
+    star_vals[:, 0] -= star_vals[:, 2]
+    col_t = free_of_point.dtype
+    star_cols = np.empty((star_s.size, 3), col_t)
+    star_cols[:, 0] = star_s
+    np.multiply(star_s, 2, out=star_cols[:, 1], casting="same_kind")
+    star_cols[:, 1] += nv
+    np.add(star_cols[:, 1], 1, out=star_cols[:, 2])
+    del star_w
 
     # points of eliminated vertex systems: expand star references into frames
     rows, cols, vals = (_cat(x, np.int64 if k < 2 else None) for k, x in enumerate(slow))
@@ -427,8 +433,9 @@ def build_space(
         inner_q=lay.inner(eq_fq[i], eq_kq[i]),
         inner_p=lay.inner(eq_fp[i], eq_kp[i]),
         star=lay.star(eq_e[i], eq_end[i]),
-        w=-coef[i][:, [0, 1, 3]] / cr[:, None],  # weights of (inner_q, inner_p, star)
+        w=coef[i][:, [0, 1, 3]],  # weights of (inner_q, inner_p, star), scaled below
     )
+    fast_rec["w"] /= -cr[:, None]
     if i.size:
         max_coef = max(max_coef, float(np.abs(fast_rec["w"]).max()))
     # all inner points at fast-path vertices are free
@@ -516,7 +523,7 @@ def build_space(
     del corner_v, corner_rank, eq_rank, good_eq, fast, i, cr, c2, q_dep, dep, other, c_dep, c_oth
     free_pts = np.sort(np.concatenate(free_pts)) if free_pts else np.zeros(0, np.int64)
     n_free = 3 * nv + free_pts.size
-    free_of_point = np.full(npts, -1, np.int64)
+    free_of_point = np.full(npts, -1, np.int32 if max(npts, n_free) < 2**31 - 1 else np.int64)
     free_of_point[:nv] = np.arange(nv)
     free_of_point[free_pts] = np.arange(3 * nv, n_free)
     M = _compose(lay, nv, edges, UV, frame_scale, free_of_point, n_free, fast_rec, (D_rows, D_cols, D_vals), flip_rec)
