@@ -72,8 +72,8 @@ class Triangulation:
         if not np.all(np.isfinite(uv)):
             bad = np.flatnonzero(~np.all(np.isfinite(uv), axis=1))
             raise TriangulationError(f"non-finite uv coordinates at vertices {first_few(bad)}")
-        bad = np.flatnonzero((faces < 0).any(1) | (faces >= nv).any(1))
-        if bad.size:
+        if faces.min() < 0 or faces.max() >= nv:
+            bad = np.flatnonzero((faces < 0).any(1) | (faces >= nv).any(1))
             raise TriangulationError(f"faces with vertex ids outside [0, {nv}): {first_few(bad)}")
         bad = np.flatnonzero(
             (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
@@ -96,13 +96,15 @@ class Triangulation:
                 f"faces that are not counter-clockwise with positive uv area: {first_few(bad)} "
                 f"({neg.size} flipped, {bad.size - neg.size} degenerate); the domain folds"
             )
-        # Directed half-edges must be unique (edge-manifold and consistently oriented).
+        # Directed half-edges must be unique (edge-manifold and consistently oriented):
+        # an undirected edge traversed twice in the same direction (the edge tables'
+        # sort serves this check too; a third face on an edge always repeats a direction)
         he = self._halfedges
-        key = he[:, 0] * nv + he[:, 1]
-        order = np.argsort(key, kind="stable")
-        dup = key[order][1:] == key[order][:-1]
-        if dup.any():
-            faces_bad = np.unique(order[1:][dup] // 3)
+        _, face_edges, _, _ = self._edge_tables
+        directed = 2 * face_edges.reshape(-1) + (he[:, 0] > he[:, 1])
+        uses = np.bincount(directed, minlength=2 * self.n_edges)
+        if (uses > 1).any():
+            faces_bad = np.unique(np.flatnonzero(uses[directed] > 1) // 3)
             raise TriangulationError(
                 "non-manifold or inconsistently oriented edges (a directed edge used twice) "
                 f"in faces {first_few(faces_bad)}"
@@ -136,12 +138,12 @@ class Triangulation:
     def _edge_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         he = self._halfedges
         nv = self.n_vertices
-        lo = he.min(1)
-        hi = he.max(1)
+        lo = np.minimum(he[:, 0], he[:, 1])
+        hi = np.maximum(he[:, 0], he[:, 1])
         key = lo * nv + hi
         uniq, inv = np.unique(key, return_inverse=True)
-        edges = np.column_stack([uniq // nv, uniq % nv]).astype(np.int64)
-        face_edges = inv.reshape(-1, 3).astype(np.int64)
+        edges = np.column_stack([uniq // nv, uniq % nv]).astype(np.int64, copy=False)
+        face_edges = inv.reshape(-1, 3).astype(np.int64, copy=False)
         ne = edges.shape[0]
         edge_faces = np.full((ne, 2), -1, np.int64)
         edge_opp = np.full((ne, 2), -1, np.int64)
@@ -208,19 +210,14 @@ class Triangulation:
         next face shares the edge from the vertex to local vertex ``k + 2``.
         """
         F = self.faces
-        nf = self.n_faces
-        fe = self.face_edges
-        ef = self.edge_faces
-        k = np.tile(np.arange(3), nf)
-        f = np.repeat(np.arange(nf), 3)
-        e = fe[f, (k + 1) % 3]  # edge opposite local k+1 joins k and k+2
-        g = np.where(ef[e, 0] == f, ef[e, 1], ef[e, 0])
-        v = F[f, k]
-        nxt = np.full(3 * nf, -1, np.int64)
-        ok = g >= 0
-        # local index of v inside g
-        kg = np.argmax(F[g[ok]] == v[ok, None], axis=1)
-        nxt[ok] = 3 * g[ok] + kg
+        e = self.face_edges[:, [1, 2, 0]].reshape(-1)  # corner 3f+k: the edge opposite local k+1
+        v = F.reshape(-1)  # joins v = F[f, k] and w = F[f, k+2]; f traverses it w -> v,
+        w = F[:, [2, 0, 1]].reshape(-1)  # so f is on side (w > v) of the edge tables
+        other = 2 * e + (w < v)
+        g = self.edge_faces.reshape(-1)[other]
+        # the neighbour traverses v -> w: the half-edge opposite its local j runs j+1 -> j+2
+        kg = (self.edge_opposite.reshape(-1)[other] + 1) % 3
+        nxt = np.where(g >= 0, 3 * g + kg, -1)
         return nxt
 
     @cached_property
@@ -267,10 +264,15 @@ class Triangulation:
             corners.append(cs)
         fan_ids = np.concatenate(fan_ids)
         steps = np.concatenate(steps)
-        corners = np.concatenate(corners)
-        fv = v_of[all_starts][fan_ids]
-        o = np.lexsort((steps, fan_ids, fv))
-        corners = corners[o]
+        walked_corners = np.concatenate(corners)
+        # fans ordered by vertex (then fan id), each fan's corners by step: place every
+        # corner at its fan's offset plus its step (no sort of all 3F corners)
+        fan_order = np.argsort(v_of[all_starts], kind="stable")
+        fan_len = np.bincount(fan_ids, minlength=all_starts.size)
+        fan_offset = np.empty(all_starts.size, np.int64)
+        fan_offset[fan_order] = np.cumsum(fan_len[fan_order]) - fan_len[fan_order]
+        corners = np.empty(walked_corners.size, np.int64)
+        corners[fan_offset[fan_ids] + steps] = walked_corners
         fan_count = n_start_per_v.copy()
         # a vertex whose walk does not reach all of its corners has several fans
         reached = np.bincount(v_of[corners], minlength=nv)

@@ -12,6 +12,7 @@ from trispline.spline.continuity import c1_vectors, continuity_report
 from trispline.spline.errors import TriangulationError
 from trispline.spline.polynomial import polynomial_control_net, random_polynomial
 from trispline.spline.propagation import KIND_FLIP, KIND_INNER, build_space
+from trispline.spline.topology import Triangulation
 
 C1_TOL = 1e-10
 
@@ -161,3 +162,19 @@ def test_invalid_domains_are_rejected_with_the_face_named():
     bad[0, 0] = np.nan
     with pytest.raises(TriangulationError, match="non-finite"):
         build_space(bad, faces)
+
+
+def test_non_manifold_edges_and_bowtie_vertices_are_rejected():
+    # an edge (0, 1) with three faces on it: two of them traverse it in the same direction
+    uv = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, 1.0], [0.5, -1.0], [0.6, 2.0]])
+    three = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])
+    with pytest.raises(TriangulationError, match=r"directed edge used twice.*faces .*\(first: 0"):
+        build_space(uv, three)
+    # two triangles that share only vertex 0: one vertex, two fans
+    uv = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
+    bowtie = np.array([[0, 1, 2], [0, 3, 4]])
+    with pytest.raises(TriangulationError, match=r"bowtie\) vertices.*: 1 \(first: 0\)"):
+        build_space(uv, bowtie)
+    # the same triangles joined by a third one: a valid incomplete star
+    tri = Triangulation(uv, np.vstack([bowtie, [[0, 2, 3]]]))
+    assert tri._fans[2][0] == 1 and tri.vertex_fan(0).tolist() == [0, 2, 1]
