@@ -164,3 +164,12 @@ def test_threaded_tasks_equal_the_single_threaded_tessellation(monkeypatch):
     np.testing.assert_allclose(threaded.vertices, inline.vertices, atol=1e-13)
     np.testing.assert_allclose(threaded.normals, inline.normals, atol=1e-12)
     np.testing.assert_allclose(threaded.vertices, func(threaded.uv), atol=1e-11)
+
+
+def test_normals_are_zero_not_nan_where_the_surface_is_singular():
+    uv, faces = domains.grid(3)
+    ctrl = np.zeros((len(faces), 21, 3))
+    ctrl[..., 0] = polynomial_control_net(uv, faces, random_polynomial(1, 1, 0))[..., 0]  # a curve: x only
+    mesh = tessellate(uv, faces, ctrl, 4)
+    assert np.isfinite(mesh.normals).all()
+    np.testing.assert_array_equal(mesh.normals, 0.0)
