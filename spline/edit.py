@@ -195,7 +195,7 @@ class SplineEditor:
     @property
     def ctrl(self) -> np.ndarray:
         """``(F, 21, d)`` per-patch control points (a gather, ``O(F)``)."""
-        return self._points[self.space.point_index]
+        return self.space.patch_points(self._points)
 
     def patch_ctrl(self, faces: np.ndarray) -> np.ndarray:
         """``(n, 21, d)`` control points of the patches ``faces``."""

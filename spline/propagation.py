@@ -137,9 +137,15 @@ class SplineSpace:
 
     def control_points(self, free: np.ndarray) -> np.ndarray:
         """Per-patch control points ``(F, 21, d)`` from ``free: (n_free, d)``."""
-        points = self.points(free)
+        return self.patch_points(self.points(free))
+
+    def patch_points(self, points: np.ndarray) -> np.ndarray:
+        """Gather a net ``points: (n_points, d)`` into per-patch ``(F, 21, d)``."""
+        points = np.asarray(points)
+        if points.shape[0] != self.n_points:
+            raise ValueError(f"points must have {self.n_points} rows, got {points.shape[0]}")
         # np.take along axis 0 copies whole rows: ~3x faster than points[point_index]
-        out = _memory.empty(self.point_index.shape + points.shape[1:])
+        out = _memory.empty(self.point_index.shape + points.shape[1:], points.dtype)
         np.take(points, self.point_index.reshape(-1), axis=0, out=out.reshape((-1,) + points.shape[1:]), mode="clip")
         return out
 

@@ -178,3 +178,15 @@ def test_non_manifold_edges_and_bowtie_vertices_are_rejected():
     # the same triangles joined by a third one: a valid incomplete star
     tri = Triangulation(uv, np.vstack([bowtie, [[0, 2, 3]]]))
     assert tri._fans[2][0] == 1 and tri.vertex_fan(0).tolist() == [0, 2, 1]
+
+
+@pytest.mark.parametrize("shape", [(), (1,), (3,)])
+def test_patch_points_is_the_gather_of_the_net(shape):
+    uv, faces = domains.random_delaunay(60, holes=1, seed=4)
+    space = build_space(uv, faces)
+    net = np.random.default_rng(0).normal(size=(space.n_points,) + shape)
+    np.testing.assert_array_equal(space.patch_points(net), net[space.point_index])
+    free = np.random.default_rng(1).normal(size=(space.n_free,) + shape)
+    np.testing.assert_array_equal(space.control_points(free), (space.M @ free)[space.point_index])
+    with pytest.raises(ValueError, match="rows"):
+        space.patch_points(net[:-1])
