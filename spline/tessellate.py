@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 from functools import lru_cache
@@ -148,23 +149,38 @@ CHUNK_FACES = 4096
 #: Patches per evaluation task: keeps each task's temporaries in cache.
 TASK_PATCHES = 8192
 
-_blas_controller = None
+_blas_lock = threading.Lock()
+_blas_state: dict = {"controller": None, "limiter": None, "users": 0}
 
 
+@contextlib.contextmanager
 def _single_threaded_blas():
     """Context in which BLAS runs on the calling thread only.
 
     The evaluation tasks call BLAS from several Python threads at once; a BLAS
     that threads each call as well oversubscribes the cores (measured slower).
+    The limit is process-wide; concurrent tessellations share it, the first one
+    in sets it and the last one out restores the original thread count.
     """
-    global _blas_controller
     try:
         from threadpoolctl import ThreadpoolController
     except ImportError:  # pragma: no cover - threadpoolctl is a dependency
-        return contextlib.nullcontext()
-    if _blas_controller is None:
-        _blas_controller = ThreadpoolController()
-    return _blas_controller.limit(limits=1, user_api="blas")
+        yield
+        return
+    with _blas_lock:
+        if _blas_state["users"] == 0:
+            if _blas_state["controller"] is None:
+                _blas_state["controller"] = ThreadpoolController()
+            _blas_state["limiter"] = _blas_state["controller"].limit(limits=1, user_api="blas")
+        _blas_state["users"] += 1
+    try:
+        yield
+    finally:
+        with _blas_lock:
+            _blas_state["users"] -= 1
+            if _blas_state["users"] == 0:
+                _blas_state["limiter"].restore_original_limits()
+                _blas_state["limiter"] = None
 
 
 class _Workers:

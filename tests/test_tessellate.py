@@ -173,3 +173,19 @@ def test_normals_are_zero_not_nan_where_the_surface_is_singular():
     mesh = tessellate(uv, faces, ctrl, 4)
     assert np.isfinite(mesh.normals).all()
     np.testing.assert_array_equal(mesh.normals, 0.0)
+
+
+def test_concurrent_tessellations_restore_the_blas_thread_count():
+    """The one-thread BLAS limit is process-wide: overlapping calls must not leave it set."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from threadpoolctl import threadpool_info
+
+    uv, faces = domains.random_delaunay(6_000, seed=5)  # ~12k faces: the threaded path
+    ctrl = polynomial_control_net(uv, faces, random_polynomial(5, 3, 1))
+    before = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+    with ThreadPoolExecutor(3) as pool:
+        meshes = list(pool.map(lambda _: tessellate(uv, faces, ctrl, 4), range(6)))
+    assert [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"] == before
+    for m in meshes[1:]:
+        np.testing.assert_array_equal(m.vertices, meshes[0].vertices)
