@@ -1,4 +1,4 @@
-"""Large output arrays whose pages are faulted in by a thread per core.
+"""Allocation of large arrays: compact index types, pages faulted in by a thread per core.
 
 The first write to freshly mapped memory costs one page fault per page, paid on
 the writing thread. For the few arrays of hundreds of megabytes that a 1M-face
@@ -14,6 +14,12 @@ import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+
+
+def index_dtype(*counts: int) -> type:
+    """``np.int32`` when every id below the largest of ``counts`` fits in it, else ``np.int64``."""
+    return np.int32 if max(counts) < 2**31 - 1 else np.int64
+
 
 #: Arrays below this many bytes are plain ``np.empty``.
 PREFAULT_BYTES = 32 << 20

@@ -244,7 +244,7 @@ def _compose(lay: NetLayout, nv: int, edges: np.ndarray, UV: np.ndarray, frame_s
     length[s_ids] = np.diff(S.indptr)
     length[flips["rows"]] = 1 + length[flips["mid_r"]] + length[flips["mid_s"]]
     nnz = int(length.sum(dtype=np.int64))
-    idx_t = np.int32 if max(nnz, n_free, npts) < 2**31 - 1 else np.int64
+    idx_t = _memory.index_dtype(nnz, n_free, npts)
     indptr = np.zeros(npts + 1, idx_t)
     np.cumsum(length, dtype=idx_t, out=indptr[1:])
     data = _memory.empty(nnz)
@@ -529,7 +529,7 @@ def build_space(
     del corner_v, corner_rank, eq_rank, good_eq, fast, i, cr, c2, q_dep, dep, other, c_dep, c_oth
     free_pts = np.sort(np.concatenate(free_pts)) if free_pts else np.zeros(0, np.int64)
     n_free = 3 * nv + free_pts.size
-    free_of_point = np.full(npts, -1, np.int32 if max(npts, n_free) < 2**31 - 1 else np.int64)
+    free_of_point = np.full(npts, -1, _memory.index_dtype(npts, n_free))
     free_of_point[:nv] = np.arange(nv)
     free_of_point[free_pts] = np.arange(3 * nv, n_free)
     M = _compose(lay, nv, edges, UV, frame_scale, free_of_point, n_free, fast_rec, (D_rows, D_cols, D_vals), flip_rec)

@@ -31,6 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import _memory
 from ._index import CORNER, NCTRL, STAR
 from .bernstein import basis, basis_gradient_bary
 from .errors import InputError
@@ -283,7 +284,7 @@ def tessellate(
     # chunks in threads (numpy releases the GIL) while this thread evaluates
     base = nv + (r - 1) * ne
     n = jk.shape[0]
-    idx_t = np.int32 if m < 2**31 - 1 else np.int64
+    idx_t = _memory.index_dtype(m)
     nt = ltris.shape[0]
     triangles = np.empty((nf * nt, 3), idx_t)
     cm = np.flatnonzero(kind == 0)
