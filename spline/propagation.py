@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from . import _memory
+from . import _memory, _parallel
 from .net import NetLayout, layout_of, point_index
 from .topology import Triangulation
 
@@ -183,10 +183,6 @@ class SplineSpace:
         return out
 
 
-def _cat(parts: list[np.ndarray], dtype=None) -> np.ndarray:
-    return np.concatenate(parts) if parts else np.zeros(0, dtype or np.float64)
-
-
 def _ragged_gather(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Positions of all entries of CSR ``rows`` and the index of the row each came from."""
     start = indptr[rows]
@@ -196,106 +192,51 @@ def _ragged_gather(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np
     return start[owner] + offs, owner
 
 
-def _compose(lay: NetLayout, nv: int, edges: np.ndarray, UV: np.ndarray, frame_scale: np.ndarray,
-             free_of_point: np.ndarray, n_free: int, fast: dict, slow: tuple, flips: dict) -> sp.csr_array:
-    """Write ``M`` straight into CSR arrays, class by class.
+def _diamond_ids(tri: Triangulation, e: np.ndarray) -> tuple[np.ndarray, ...]:
+    """For interior edges ``e = (a, b)``: ``a, b, f0, f1, k0, k1``.
 
-    Every point's row length is known before any value is written: 1 for free
-    points, 3 for stars (affine in their vertex's frame), 5 for middle points of
-    the fast path (two inner points and a star), the reduced row for points of an
-    eliminated vertex system, and ``1 + len(mid_r) + len(mid_s)`` for computed
-    flips. Flips have the highest ids and depend only on earlier rows, so they
-    are gathered from the rows already written. No COO sort, no sparse products.
+    ``f0`` is the face left of ``a -> b`` with ``a, b`` at its local corners
+    ``k0 + 1, k0 + 2``; in ``f1`` they sit at ``k1 + 2, k1 + 1``. The diamond's
+    outer vertices are ``p = F[f0, k0]`` and ``q = F[f1, k1]``.
     """
-    npts = lay.n_points
-    # star 2e + end sits at vertex s = edges[e, end] towards w = edges[e, 1 - end]
-    star_s, star_w = edges.reshape(-1), edges[:, ::-1].reshape(-1)
-    star_vals = np.empty((star_s.size, 3))
-    np.subtract(UV[star_w], UV[star_s], out=star_vals[:, 1:])
-    star_vals[:, 1:] /= frame_scale[star_s, None]
-    np.subtract(1.0, star_vals[:, 1], out=star_vals[:, 0])
-    star_vals[:, 0] -= star_vals[:, 2]
-    col_t = free_of_point.dtype
-    star_cols = np.empty((star_s.size, 3), col_t)
-    star_cols[:, 0] = star_s
-    np.multiply(star_s, 2, out=star_cols[:, 1], casting="same_kind")
-    star_cols[:, 1] += nv
-    np.add(star_cols[:, 1], 1, out=star_cols[:, 2])
-    del star_w
-
-    # points of eliminated vertex systems: expand star references into frames
-    rows, cols, vals = (_cat(x, np.int64 if k < 2 else None) for k, x in enumerate(slow))
-    is_star = (cols >= lay.star0) & (cols < lay.mid0)
-    k = cols[is_star] - lay.star0
-    s_rows = np.concatenate([rows[~is_star], np.repeat(rows[is_star], 3)])
-    s_cols = np.concatenate([free_of_point[cols[~is_star]], star_cols[k].ravel()])
-    s_vals = np.concatenate([vals[~is_star], (vals[is_star, None] * star_vals[k]).ravel()])
-    if (s_cols < 0).any():  # pragma: no cover - internal consistency
-        raise AssertionError("an eliminated point references a dependent point")
-    s_ids, s_local = np.unique(s_rows, return_inverse=True)
-    S = sp.csr_array((s_vals, (s_local, s_cols)), shape=(s_ids.size, n_free))
-    S.sum_duplicates()
-
-    length = np.zeros(npts, np.int32)  # a row holds at most 1 + 2 * (longest middle row) entries
-    free_pts = np.flatnonzero(free_of_point >= 0)
-    length[free_pts] = 1
-    length[lay.star0 : lay.mid0] = 3
-    length[fast["rows"]] = 5
-    length[s_ids] = np.diff(S.indptr)
-    length[flips["rows"]] = 1 + length[flips["mid_r"]] + length[flips["mid_s"]]
-    nnz = int(length.sum(dtype=np.int64))
-    idx_t = _memory.index_dtype(nnz, n_free, npts)
-    indptr = np.zeros(npts + 1, idx_t)
-    np.cumsum(length, dtype=idx_t, out=indptr[1:])
-    data = _memory.empty(nnz)
-    indices = _memory.empty(nnz, idx_t)
-
-    def put_columns(row_ids, cols, vals):
-        """Rows of fixed width, one scatter per column (no (n, width) temporaries)."""
-        start = indptr[row_ids]
-        for j, (c, v) in enumerate(zip(cols, vals)):
-            data[start + j] = v
-            indices[start + j] = c
-
-    # corners and stars occupy the first ids with fixed lengths 1 and 3: one contiguous block
-    head = indptr[lay.mid0]
-    data[:nv] = 1.0
-    indices[:nv] = np.arange(nv)
-    data[nv:head] = star_vals.ravel()
-    indices[nv:head] = star_cols.ravel()
-    rest = free_pts[free_pts >= lay.mid0]
-    put_columns(rest, [free_of_point[rest]], [1.0])
-    ks = fast["star"] - lay.star0
-    w = fast["w"]
-    put_columns(
-        fast["rows"],
-        [free_of_point[fast["inner_q"]], free_of_point[fast["inner_p"]]] + [star_cols[ks, j] for j in range(3)],
-        [w[:, 0], w[:, 1]] + [w[:, 2] * star_vals[ks, j] for j in range(3)],
-    )
-    pos, owner = _ragged_gather(S.indptr, np.arange(s_ids.size))
-    dest = indptr[s_ids][owner] + (pos - S.indptr[owner])
-    data[dest] = S.data[pos]
-    indices[dest] = S.indices[pos]
-    # flips: w_other * other + w_r * row(mid_r) + w_s * row(mid_s); the middle rows are
-    # copied grouped by their length (1 free, 5 fast path, a few others), column by column
-    fr, fw = flips["rows"], flips["w"]
-    put_columns(fr, [free_of_point[flips["other"]]], [fw[:, 0]])
-    offset = indptr[fr] + 1
-    for mid, wk in ((flips["mid_r"], fw[:, 1]), (flips["mid_s"], fw[:, 2])):
-        mlen = length[mid]
-        for L in np.unique(mlen):
-            sel = np.flatnonzero(mlen == L)
-            src, dst, wsel = indptr[mid[sel]], offset[sel], wk[sel]
-            for j in range(int(L)):
-                data[dst + j] = wsel * data[src + j]
-                indices[dst + j] = indices[src + j]
-        offset += mlen
-    M = sp.csr_array((data, indices, indptr), shape=(npts, n_free))
-    M.sort_indices()
-    M.eliminate_zeros()
-    return M
+    ab, ef, eo = tri.edges[e], tri.edge_faces[e], tri.edge_opposite[e]
+    return ab[:, 0], ab[:, 1], ef[:, 0], ef[:, 1], eo[:, 0], eo[:, 1]
 
 
+def _star_rows(edges: np.ndarray, UV: np.ndarray, frame_scale: np.ndarray, nv: int,
+               k: np.ndarray, col_dtype: type) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of star points ``k = 2 e + end``: affine in their vertex's frame.
+
+    Star ``2e + end`` sits at ``s = edges[e, end]`` towards ``w = edges[e, 1 - end]``:
+    ``f(s^4 w) = (1 - x - y) z_s + x frame_s,x + y frame_s,y`` with
+    ``(x, y) = (w - s) / d_s``. Returns values and free columns, each ``(n, 3)``.
+    """
+    e, end = np.divmod(k, 2)
+    s, w = edges[e, end], edges[e, 1 - end]
+    vals = np.empty((k.size, 3))
+    np.subtract(UV[w], UV[s], out=vals[:, 1:])
+    vals[:, 1:] /= frame_scale[s, None]
+    np.subtract(1.0, vals[:, 1], out=vals[:, 0])
+    vals[:, 0] -= vals[:, 2]
+    cols = np.empty((k.size, 3), col_dtype)
+    cols[:, 0] = s
+    np.multiply(s, 2, out=cols[:, 1], casting="same_kind")
+    cols[:, 1] += nv
+    np.add(cols[:, 1], 1, out=cols[:, 2])
+    return vals, cols
+
+
+@dataclass
+class _Eliminated:
+    """What the eliminated vertex systems contribute: point rows in terms of points."""
+
+    rows: list = field(default_factory=list)  # dependent point ids
+    cols: list = field(default_factory=list)  # point ids (free points or star points)
+    vals: list = field(default_factory=list)
+    free: list = field(default_factory=list)  # point ids left free
+    singular: list = field(default_factory=list)
+    max_coef: float = 0.0
+    n_systems: int = 0
 def _rank_within(keys: np.ndarray, n_groups: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Stable order by ``keys``, each element's rank inside its group, and group counts."""
     order = np.argsort(keys, kind="stable")
@@ -351,6 +292,95 @@ def _eliminate(A: np.ndarray, K: np.ndarray, weight: np.ndarray, tol: float):
     return piv_col
 
 
+
+
+def _vertex_systems(tri: Triangulation, lay: NetLayout, ie: np.ndarray, c2: np.ndarray, bad_v: np.ndarray,
+                    eq_sel: tuple[np.ndarray, np.ndarray], singular_tol: float, inner_weight: float) -> _Eliminated:
+    """Reduce the ``i = 1`` systems of the vertices flagged in ``bad_v`` (batched, by shape).
+
+    ``eq_sel``: positions in ``ie`` of the equations at end 0 and at end 1 whose
+    vertex is flagged. Equations are ordered end-0 first, each in ``ie`` order,
+    and so are the ranks of equations and corners inside a vertex.
+    """
+    out = _Eliminated(n_systems=int(bad_v.sum()))
+    if out.n_systems == 0:
+        return out
+    F, nv = tri.faces, tri.n_vertices
+    i0, i1 = eq_sel
+    ii = np.concatenate([i0, i1])
+    at_b = np.concatenate([np.zeros(i0.size, bool), np.ones(i1.size, bool)])
+    eq_e = ie[ii]
+    a, b, f0, f1, k0, k1 = _diamond_ids(tri, eq_e)
+    eq_s = np.where(at_b, b, a)
+    eq_end = at_b.astype(np.int64)
+    eq_kp = np.where(at_b, (k0 + 2) % 3, (k0 + 1) % 3)
+    eq_kq = np.where(at_b, (k1 + 1) % 3, (k1 + 2) % 3)
+    # equation coefficients of (inner_q, inner_p, mid, star): at end 0 (r = b, s = a) the
+    # diamond's r and s coefficients swap
+    coef = c2[ii]
+    coef[~at_b] = coef[~at_b][:, [0, 1, 3, 2]]
+    corner_v = F.ravel()
+    n_c = np.bincount(corner_v, minlength=nv)
+    n_e = np.bincount(tri.edges[ie].ravel(), minlength=nv)  # interior edges (= equations) per vertex
+    cb = np.flatnonzero(bad_v[corner_v])  # corners at flagged vertices, in corner order
+    _, rank_b, _ = _rank_within(corner_v[cb], nv)
+    _, eq_rank, _ = _rank_within(eq_s, nv)
+    col_p = rank_b[np.searchsorted(cb, 3 * f0 + eq_kp)]
+    col_q = rank_b[np.searchsorted(cb, 3 * f1 + eq_kq)]
+
+    shape_key = np.where(bad_v, n_c * (n_e.max(initial=0) + 1) + n_e, -1)
+    eq_group_key = shape_key[eq_s]
+    corner_key = shape_key[corner_v[cb]]
+    for key in np.unique(shape_key[bad_v]):
+        verts = np.flatnonzero(shape_key == key)
+        nc, m = int(n_c[verts[0]]), int(n_e[verts[0]])
+        nb = verts.size
+        slot = np.full(nv, -1, np.int64)
+        slot[verts] = np.arange(nb)
+        # global ids of the unknowns: inner points (by corner rank) then mids (by eq rank)
+        col_pid = np.empty((nb, nc + m), np.int64)
+        in_group = corner_key == key
+        cidx = cb[in_group]
+        col_pid[slot[corner_v[cidx]], rank_b[in_group]] = lay.inner0 + cidx  # inner id = inner0 + 3f + k
+        eqi = np.flatnonzero(eq_group_key == key)
+        bi, ri = slot[eq_s[eqi]], eq_rank[eqi]
+        col_pid[bi, nc + ri] = lay.mid(eq_e[eqi], eq_end[eqi])
+        star_pid = np.empty((nb, m), np.int64)
+        star_pid[bi, ri] = lay.star(eq_e[eqi], eq_end[eqi])
+        A = np.zeros((nb, m, nc + m))
+        K = np.zeros((nb, m, m))
+        np.add.at(A, (bi, ri, col_q[eqi]), coef[eqi, 0])
+        np.add.at(A, (bi, ri, col_p[eqi]), coef[eqi, 1])
+        A[bi, ri, nc + ri] = coef[eqi, 2]
+        K[bi, ri, ri] = coef[eqi, 3]
+        weight = np.concatenate([np.full(nc, inner_weight), np.ones(m)])
+        piv = _eliminate(A, K, weight, singular_tol)
+        # singular vertices: rows without pivot
+        lost = (piv < 0).sum(1)
+        if lost.any():
+            out.singular.append(np.repeat(verts[lost > 0], lost[lost > 0]))
+        is_piv_col = np.zeros((nb, nc + m), bool)
+        pb, pr = np.nonzero(piv >= 0)
+        is_piv_col[pb, piv[pb, pr]] = True
+        out.free.append(col_pid[~is_piv_col])
+        # dependent rows: unknown[piv] = -sum_j A[r, j] u_j - sum_k K[r, k] star_k (j free columns)
+        dep = col_pid[pb, piv[pb, pr]]
+        Ar = A[pb, pr]  # (npiv, c)
+        Ar[is_piv_col[pb]] = 0.0
+        jj, cc = np.nonzero(Ar)
+        out.rows.append(dep[jj])
+        out.cols.append(col_pid[pb[jj], cc])
+        out.vals.append(-Ar[jj, cc])
+        Kr = K[pb, pr]
+        jj, cc = np.nonzero(Kr)
+        out.rows.append(dep[jj])
+        out.cols.append(star_pid[pb[jj], cc])
+        out.vals.append(-Kr[jj, cc])
+        if Ar.size:
+            out.max_coef = max(out.max_coef, float(np.abs(Ar).max()), float(np.abs(Kr).max()))
+    return out
+
+
 def build_space(
     uv: np.ndarray | Triangulation,
     faces: np.ndarray | None = None,
@@ -368,6 +398,12 @@ def build_space(
     Returns
     -------
     SplineSpace
+
+    Notes
+    -----
+    The per-edge stages (diamonds, fast-path rows, flips) and the writing of
+    ``M`` run on ranges of edges in a thread per core; every range writes its
+    own entries, so the result does not depend on the thread count.
     """
     clock = [time.perf_counter()]
     timings: dict[str, float] = {}
@@ -378,175 +414,101 @@ def build_space(
         clock[0] = now
 
     tri = uv if isinstance(uv, Triangulation) else Triangulation(uv, faces)
-    _ = tri.edges, tri.edge_faces
+    _ = tri.edges, tri.edge_faces, tri.face_edges
     tick("triangulation")
     lay = layout_of(tri)
     F, UV = tri.faces, tri.uv
-    nv = tri.n_vertices
-    npts = lay.n_points
+    nv, npts = tri.n_vertices, lay.n_points
     edges = tri.edges
-
-    # ---- frame scale: mean incident edge length
-    elen = np.linalg.norm(UV[edges[:, 0]] - UV[edges[:, 1]], axis=1)
-    frame_scale = np.bincount(edges.ravel(), weights=np.repeat(elen, 2), minlength=nv) / np.bincount(
-        edges.ravel(), minlength=nv
-    )
-
-    # ---- the i = 1 equations, one per interior edge end
     ie = tri.interior_edges
-    a, b = edges[ie, 0], edges[ie, 1]
-    f0, f1 = tri.edge_faces[ie, 0], tri.edge_faces[ie, 1]
-    k0, k1 = tri.edge_opposite[ie, 0], tri.edge_opposite[ie, 1]
-    p, q = F[f0, k0], F[f1, k1]
-    # in f0: a = local k0+1, b = local k0+2; in f1: b = local k1+1, a = local k1+2
-    eq_s = np.concatenate([a, b])
-    eq_e = np.concatenate([ie, ie])
-    eq_end = np.concatenate([np.zeros_like(ie), np.ones_like(ie)])
-    eq_fp = np.concatenate([f0, f0])
-    eq_kp = np.concatenate([(k0 + 1) % 3, (k0 + 2) % 3])
-    eq_fq = np.concatenate([f1, f1])
-    eq_kq = np.concatenate([(k1 + 2) % 3, (k1 + 1) % 3])
-    # one diamond per interior edge: with r = a, s = b it is the equation at end 1 and
-    # the flips' i = 2 condition; at end 0 (r = b, s = a) the r and s coefficients swap
-    # (the signed areas change sign exactly, so this is bit-identical to recomputing)
-    c2 = diamond_coefficients(UV[p], UV[q], UV[a], UV[b])  # (q, p, r, s)
-    coef = np.concatenate([c2[:, [0, 1, 3, 2]], c2])
+    n_ie = ie.size
 
-    tick("diamonds")
-    # ---- local numbering: corners and equations per vertex
-    corner_v = F.ravel()
-    _, corner_rank, n_c = _rank_within(corner_v, nv)
-    _, eq_rank, n_e = _rank_within(eq_s, nv)
-    col_p = corner_rank[3 * eq_fp + eq_kp]
-    col_q = corner_rank[3 * eq_fq + eq_kq]
+    with _parallel.Workers(max(n_ie, tri.n_faces)) as work:
+        pidx_job = work.submit(point_index, tri)  # independent of everything below
 
-    D_rows, D_cols, D_vals = [], [], []  # point <- point
-    free_pts = []  # global ids of free control points (besides corners)
+        # ---- frame scale: mean incident edge length
+        elen = np.linalg.norm(UV[edges[:, 0]] - UV[edges[:, 1]], axis=1)
+        frame_scale = np.bincount(edges.ravel(), weights=np.repeat(elen, 2), minlength=nv) / np.bincount(
+            edges.ravel(), minlength=nv
+        )
+        del elen
 
-    max_coef = 0.0
-    # ---- per-vertex systems. Fast path: where every equation's middle-point
-    # coefficient passes the pivot preference, weighted complete pivoting would pick
-    # all middle points (a middle column lives in one row only), so no elimination.
-    good_eq = np.abs(coef[:, 2]) >= inner_weight * np.maximum(np.abs(coef[:, 0]), np.abs(coef[:, 1]))
-    good_eq &= np.abs(coef[:, 2]) > singular_tol
-    bad_v = np.zeros(nv, bool)
-    bad_v[eq_s[~good_eq]] = True
-    fast = ~bad_v[eq_s]
-    i = np.flatnonzero(fast)
-    cr = coef[i, 2]
-    fast_rec = dict(
-        rows=lay.mid(eq_e[i], eq_end[i]),
-        inner_q=lay.inner(eq_fq[i], eq_kq[i]),
-        inner_p=lay.inner(eq_fp[i], eq_kp[i]),
-        star=lay.star(eq_e[i], eq_end[i]),
-        w=coef[i][:, [0, 1, 3]],  # weights of (inner_q, inner_p, star), scaled below
-    )
-    fast_rec["w"] /= -cr[:, None]
-    if i.size:
-        max_coef = max(max_coef, float(np.abs(fast_rec["w"]).max()))
-    # all inner points at fast-path vertices are free
-    corner_fast = ~bad_v[corner_v]
-    free_pts.append(lay.inner0 + np.flatnonzero(corner_fast))
+        # ---- one diamond per interior edge (p, q, r = a, s = b): the i = 1 equation at end 1
+        # and the flips' i = 2 condition; the equation at end 0 (r = b, s = a) has the r and s
+        # coefficients swapped (the signed areas change sign exactly: bit-identical).
+        # Columns of c2: (q, p, r, s). A vertex needs elimination when one of its equations'
+        # middle-point coefficient fails the pivot preference; elsewhere weighted complete
+        # pivoting would pick every middle point (a middle column lives in one row only).
+        c2 = _memory.empty((n_ie, 4))
 
-    tick("fast_path")
-    # slow path: batched elimination, grouped by system shape
-    singular = []
-    shape_key = np.where(bad_v, n_c * (n_e.max(initial=0) + 1) + n_e, -1)
-    eq_group_key = shape_key[eq_s]
-    for key in np.unique(shape_key[bad_v]):
-        verts = np.flatnonzero(shape_key == key)
-        nc, m = int(n_c[verts[0]]), int(n_e[verts[0]])
-        nb = verts.size
-        slot = np.full(nv, -1, np.int64)
-        slot[verts] = np.arange(nb)
-        # global ids of the unknowns: inner points (by corner rank) then mids (by eq rank)
-        col_pid = np.empty((nb, nc + m), np.int64)
-        cidx = np.flatnonzero(shape_key[corner_v] == key)
-        col_pid[slot[corner_v[cidx]], corner_rank[cidx]] = lay.inner0 + cidx  # inner id = inner0 + 3f + k
-        eqi = np.flatnonzero(eq_group_key == key)
-        bi, ri = slot[eq_s[eqi]], eq_rank[eqi]
-        col_pid[bi, nc + ri] = lay.mid(eq_e[eqi], eq_end[eqi])
-        star_pid = np.empty((nb, m), np.int64)
-        star_pid[bi, ri] = lay.star(eq_e[eqi], eq_end[eqi])
-        A = np.zeros((nb, m, nc + m))
-        K = np.zeros((nb, m, m))
-        np.add.at(A, (bi, ri, col_q[eqi]), coef[eqi, 0])
-        np.add.at(A, (bi, ri, col_p[eqi]), coef[eqi, 1])
-        A[bi, ri, nc + ri] = coef[eqi, 2]
-        K[bi, ri, ri] = coef[eqi, 3]
-        weight = np.concatenate([np.full(nc, inner_weight), np.ones(m)])
-        piv = _eliminate(A, K, weight, singular_tol)
-        # singular vertices: rows without pivot
-        lost = (piv < 0).sum(1)
-        if lost.any():
-            singular.append(np.repeat(verts[lost > 0], lost[lost > 0]))
-        is_piv_col = np.zeros((nb, nc + m), bool)
-        pb, pr = np.nonzero(piv >= 0)
-        is_piv_col[pb, piv[pb, pr]] = True
-        free_pts.append(col_pid[~is_piv_col])
-        # dependent rows: unknown[piv] = -sum_j A[r, j] u_j - sum_k K[r, k] star_k (j free columns)
-        dep = col_pid[pb, piv[pb, pr]]
-        Ar = A[pb, pr]  # (npiv, c)
-        Ar[is_piv_col[pb]] = 0.0
-        jj, cc = np.nonzero(Ar)
-        D_rows.append(dep[jj])
-        D_cols.append(col_pid[pb[jj], cc])
-        D_vals.append(-Ar[jj, cc])
-        Kr = K[pb, pr]
-        jj, cc = np.nonzero(Kr)
-        D_rows.append(dep[jj])
-        D_cols.append(star_pid[pb[jj], cc])
-        D_vals.append(-Kr[jj, cc])
-        if Ar.size:
-            max_coef = max(max_coef, float(np.abs(Ar).max()), float(np.abs(Kr).max()))
-    n_vertex_systems = int(bad_v.sum())
-    tick("elimination")
+        def diamonds(lo: int, hi: int) -> np.ndarray:
+            a, b, f0, f1, k0, k1 = _diamond_ids(tri, ie[lo:hi])
+            c = diamond_coefficients(UV[F[f0, k0]], UV[F[f1, k1]], UV[a], UV[b])
+            c2[lo:hi] = c
+            lim = inner_weight * np.maximum(np.abs(c[:, 0]), np.abs(c[:, 1]))
+            bad = []
+            for s, mid_col in ((a, 3), (b, 2)):
+                cm = np.abs(c[:, mid_col])
+                bad.append(s[~((cm >= lim) & (cm > singular_tol))])
+            return np.concatenate(bad)
 
-    # ---- boundary edges: both middle points and the face's flip are free
-    be = tri.boundary_edges
-    bf = np.where(tri.edge_faces[be, 0] >= 0, tri.edge_faces[be, 0], tri.edge_faces[be, 1])
-    bk = np.where(tri.edge_faces[be, 0] >= 0, tri.edge_opposite[be, 0], tri.edge_opposite[be, 1])
-    free_pts += [lay.mid(be, 0), lay.mid(be, 1), lay.flip(bf, bk)]
+        bad_v = np.zeros(nv, bool)
+        bad_v[_parallel.concat(work.map(diamonds, n_ie))] = True
+        tick("diamonds")
 
-    # ---- flips of interior edges: i = 2, r = a, s = b; the flip with the larger coefficient is computed
-    flip_p, flip_q = lay.flip(f0, k0), lay.flip(f1, k1)
-    mid_r, mid_s = lay.mid(ie, 0), lay.mid(ie, 1)
-    q_dep = np.abs(c2[:, 0]) >= np.abs(c2[:, 1])
-    dep = np.where(q_dep, flip_q, flip_p)
-    other = np.where(q_dep, flip_p, flip_q)
-    c_dep = np.where(q_dep, c2[:, 0], c2[:, 1])
-    c_oth = np.where(q_dep, c2[:, 1], c2[:, 0])
-    free_pts.append(other)
-    flip_rec = dict(rows=dep, other=other, mid_r=mid_r, mid_s=mid_s,
-                    w=np.column_stack([-c_oth / c_dep, -c2[:, 2] / c_dep, -c2[:, 3] / c_dep]))
-    if ie.size:
-        max_coef = max(max_coef, float(np.abs(flip_rec["w"]).max()))
-    tick("flips")
-    # ---- free variables. The per-equation tables are no longer needed: release them
-    # before the CSR assembly, whose arrays set the peak memory.
-    del eq_s, eq_e, eq_end, eq_fp, eq_kp, eq_fq, eq_kq, coef, col_p, col_q
-    del ie, a, b, f0, f1, k0, k1, p, q, flip_p, flip_q
-    del corner_v, corner_rank, eq_rank, good_eq, fast, i, cr, c2, q_dep, dep, other, c_dep, c_oth
-    free_pts = np.sort(np.concatenate(free_pts)) if free_pts else np.zeros(0, np.int64)
-    n_free = 3 * nv + free_pts.size
-    free_of_point = np.full(npts, -1, _memory.index_dtype(npts, n_free))
-    free_of_point[:nv] = np.arange(nv)
-    free_of_point[free_pts] = np.arange(3 * nv, n_free)
-    M = _compose(lay, nv, edges, UV, frame_scale, free_of_point, n_free, fast_rec, (D_rows, D_cols, D_vals), flip_rec)
+        # ---- which points are free, and the row length of every point in M
+        is_free = np.zeros(npts, bool)  # besides the corners (free ids 0..V-1)
+        length = np.zeros(npts, np.int32)  # a row holds at most 1 + 2 * (longest middle row) entries
 
-    tick("compose")
+        def classify(lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
+            e = ie[lo:hi]
+            a, b, f0, f1, k0, k1 = _diamond_ids(tri, e)
+            fast_a, fast_b = ~bad_v[a], ~bad_v[b]
+            length[lay.mid(e[fast_a], 0)] = 5  # two inner points and the star
+            length[lay.mid(e[fast_b], 1)] = 5
+            c = c2[lo:hi]
+            q_dep = np.abs(c[:, 0]) >= np.abs(c[:, 1])  # the flip with the larger coefficient is computed
+            is_free[np.where(q_dep, lay.flip(f0, k0), lay.flip(f1, k1))] = True
+            return lo + np.flatnonzero(~fast_a), lo + np.flatnonzero(~fast_b)
+
+        slow_eqs = work.map(classify, n_ie)
+        tick("fast_path")
+        elim = _vertex_systems(tri, lay, ie, c2, bad_v,
+                               tuple(_parallel.concat([s[j] for s in slow_eqs]) for j in range(2)),
+                               singular_tol, inner_weight)
+        tick("elimination")
+        is_free[lay.inner0 : lay.flip0] = ~bad_v[F.ravel()]  # all inner points at fast-path vertices
+        for pts in elim.free:
+            is_free[pts] = True
+        # boundary edges: both middle points and the face's flip are free
+        be = tri.boundary_edges
+        side = (tri.edge_faces[be, 0] < 0).astype(np.int64)
+        bf, bk = tri.edge_faces[be, side], tri.edge_opposite[be, side]
+        is_free[lay.mid(be, 0)] = True
+        is_free[lay.mid(be, 1)] = True
+        is_free[lay.flip(bf, bk)] = True
+        free_pts = np.flatnonzero(is_free)
+        del is_free
+        n_free = 3 * nv + free_pts.size
+        free_of_point = np.full(npts, -1, _memory.index_dtype(npts, n_free))
+        free_of_point[:nv] = np.arange(nv)
+        free_of_point[free_pts] = np.arange(3 * nv, n_free)
+        tick("flips")
+
+        M, max_coef = _assemble(work, tri, lay, ie, c2, bad_v, frame_scale, free_pts, free_of_point,
+                                n_free, length, elim)
+        max_coef = max(max_coef, elim.max_coef)
+        tick("compose")
+        pidx = pidx_job.result()
+    del c2
     free_kind = np.empty(n_free, np.int8)
     free_kind[:nv] = KIND_CORNER
     free_kind[nv : 3 * nv] = KIND_FRAME
-    kinds = np.full(npts, -1, np.int8)
-    kinds[lay.mid0 : lay.inner0] = KIND_MID
-    kinds[lay.inner0 : lay.flip0] = KIND_INNER
-    kinds[lay.flip0 :] = KIND_FLIP
-    free_kind[3 * nv :] = kinds[free_pts]
+    free_kind[3 * nv :] = np.array([KIND_MID, KIND_INNER, KIND_FLIP], np.int8)[
+        np.searchsorted([lay.inner0, lay.flip0], free_pts, side="right")]
     free_point = np.concatenate([np.arange(nv), np.full(2 * nv, -1, np.int64), free_pts])
     frame_free = nv + 2 * np.arange(nv)[:, None] + np.arange(2)[None, :]
-    sing = np.sort(np.concatenate(singular)) if singular else np.zeros(0, np.int64)
-    pidx = point_index(tri)
+    sing = np.sort(np.concatenate(elim.singular)) if elim.singular else np.zeros(0, np.int64)
     tick("point_index")
     return SplineSpace(
         tri=tri,
@@ -561,5 +523,143 @@ def build_space(
         singular_vertices=sing,
         stats=dict(max_coefficient=max(float(M.data.max(initial=0.0)), -float(M.data.min(initial=0.0))),
                    max_elimination_coefficient=max_coef,
-                   nnz=int(M.nnz), eliminated_vertices=n_vertex_systems, timings=timings),
+                   nnz=int(M.nnz), eliminated_vertices=elim.n_systems, timings=timings),
     )
+
+
+def _assemble(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, ie: np.ndarray, c2: np.ndarray,
+              bad_v: np.ndarray, frame_scale: np.ndarray, free_pts: np.ndarray, free_of_point: np.ndarray,
+              n_free: int, length: np.ndarray, elim: _Eliminated) -> tuple[sp.csr_array, float]:
+    """Write ``M`` straight into CSR arrays, class by class; also the largest coefficient.
+
+    Every point's row length is known before any value is written: 1 for free
+    points, 3 for stars (affine in their vertex's frame), 5 for middle points of
+    the fast path (two inner points and a star), the reduced row for points of an
+    eliminated vertex system, and ``1 + len(mid_r) + len(mid_s)`` for computed
+    flips. Flips depend only on middle rows, so they are copied from the rows
+    already written. No COO sort, no sparse products.
+    ``length``: (n_points,) int32 with the fast-path middle rows already set to 5.
+    """
+    nv, npts, edges, UV, F = tri.n_vertices, lay.n_points, tri.edges, tri.uv, tri.faces
+    col_t = free_of_point.dtype
+
+    # points of eliminated vertex systems: expand star references into frames
+    rows, cols = (_parallel.concat(x) for x in (elim.rows, elim.cols))
+    vals = _parallel.concat(elim.vals, np.float64)
+    is_star = (cols >= lay.star0) & (cols < lay.mid0)
+    sv, sc = _star_rows(edges, UV, frame_scale, nv, cols[is_star] - lay.star0, col_t)
+    s_rows = np.concatenate([rows[~is_star], np.repeat(rows[is_star], 3)])
+    s_cols = np.concatenate([free_of_point[cols[~is_star]], sc.ravel()])
+    s_vals = np.concatenate([vals[~is_star], (vals[is_star, None] * sv).ravel()])
+    if (s_cols < 0).any():  # pragma: no cover - internal consistency
+        raise AssertionError("an eliminated point references a dependent point")
+    s_ids, s_local = np.unique(s_rows, return_inverse=True)
+    S = sp.csr_array((s_vals, (s_local, s_cols)), shape=(s_ids.size, n_free))
+    S.sum_duplicates()
+
+    length[:nv] = 1
+    length[free_pts] = 1
+    length[lay.star0 : lay.mid0] = 3
+    length[s_ids] = np.diff(S.indptr)
+
+    def flip_ids(lo: int, hi: int) -> tuple[np.ndarray, ...]:
+        """Computed flip, free flip and the diamond's coefficients for interior edges lo:hi."""
+        e = ie[lo:hi]
+        _, _, f0, f1, k0, k1 = _diamond_ids(tri, e)
+        c = c2[lo:hi]
+        q_dep = np.abs(c[:, 0]) >= np.abs(c[:, 1])
+        flip_p, flip_q = lay.flip(f0, k0), lay.flip(f1, k1)
+        return e, np.where(q_dep, flip_q, flip_p), np.where(q_dep, flip_p, flip_q), q_dep, c
+
+    def flip_lengths(lo: int, hi: int) -> None:
+        e, dep, _, _, _ = flip_ids(lo, hi)
+        length[dep] = 1 + length[lay.mid(e, 0)] + length[lay.mid(e, 1)]
+
+    work.map(flip_lengths, ie.size)
+    nnz = int(length.sum(dtype=np.int64))
+    idx_t = _memory.index_dtype(nnz, n_free, npts)
+    indptr = np.zeros(npts + 1, idx_t)
+    np.cumsum(length, dtype=idx_t, out=indptr[1:])
+    data = _memory.empty(nnz)
+    indices = _memory.empty(nnz, idx_t)
+
+    # corners and stars occupy the first ids with fixed lengths 1 and 3: one contiguous block
+    data[:nv] = 1.0
+    indices[:nv] = np.arange(nv)
+
+    def stars(lo: int, hi: int) -> None:
+        v, c = _star_rows(edges, UV, frame_scale, nv, np.arange(2 * lo, 2 * hi), col_t)
+        data[nv + 6 * lo : nv + 6 * hi] = v.ravel()
+        indices[nv + 6 * lo : nv + 6 * hi] = c.ravel()
+
+    rest = free_pts[free_pts >= lay.mid0]
+
+    def free_rows(lo: int, hi: int) -> None:
+        start = indptr[rest[lo:hi]]
+        data[start] = 1.0
+        indices[start] = free_of_point[rest[lo:hi]]
+
+    work.map(stars, tri.n_edges)
+    work.map(free_rows, rest.size)
+
+    def fast_rows(lo: int, hi: int) -> float:
+        """Middle point = w_q inner_q + w_p inner_p + w_s star, at both ends of edges lo:hi."""
+        e = ie[lo:hi]
+        a, b, f0, f1, k0, k1 = _diamond_ids(tri, e)
+        c = c2[lo:hi]
+        big = 0.0
+        # end 0 (s = a): mid coefficient c[:, 3], star c[:, 2]; end 1 (s = b): the other way
+        for end, s, mid_col, star_col, kp, kq in ((0, a, 3, 2, (k0 + 1) % 3, (k1 + 2) % 3),
+                                                   (1, b, 2, 3, (k0 + 2) % 3, (k1 + 1) % 3)):
+            ok = np.flatnonzero(~bad_v[s])
+            if ok.size == 0:
+                continue
+            co = c[ok]
+            neg = -co[:, mid_col]
+            w = [co[:, 0] / neg, co[:, 1] / neg, co[:, star_col] / neg]  # (inner_q, inner_p, star)
+            big = max(big, *(float(np.abs(x).max()) for x in w))
+            eo = e[ok]
+            start = indptr[lay.mid(eo, end)]
+            star_at = nv + 3 * (2 * eo + end)  # the star's row in the stars block
+            data[start] = w[0]
+            indices[start] = free_of_point[lay.inner(f1[ok], kq[ok])]
+            data[start + 1] = w[1]
+            indices[start + 1] = free_of_point[lay.inner(f0[ok], kp[ok])]
+            for j in range(3):
+                data[start + 2 + j] = w[2] * data[star_at + j]
+                indices[start + 2 + j] = indices[star_at + j]
+        return big
+
+    max_coef = max(work.map(fast_rows, ie.size), default=0.0)
+    pos, owner = _ragged_gather(S.indptr, np.arange(s_ids.size))
+    dest = indptr[s_ids][owner] + (pos - S.indptr[owner])
+    data[dest] = S.data[pos]
+    indices[dest] = S.indices[pos]
+
+    def flip_rows(lo: int, hi: int) -> float:
+        """Computed flip = w_o other + w_r row(mid_r) + w_s row(mid_s); middle rows are
+        copied grouped by their length (1 free, 5 fast path, a few others)."""
+        e, dep, other, q_dep, c = flip_ids(lo, hi)
+        c_dep = np.where(q_dep, c[:, 0], c[:, 1])
+        c_oth = np.where(q_dep, c[:, 1], c[:, 0])
+        w = [-c_oth / c_dep, -c[:, 2] / c_dep, -c[:, 3] / c_dep]
+        start = indptr[dep]
+        data[start] = w[0]
+        indices[start] = free_of_point[other]
+        offset = start + 1
+        for mid, wk in ((lay.mid(e, 0), w[1]), (lay.mid(e, 1), w[2])):
+            mlen = length[mid]
+            for L in np.flatnonzero(np.bincount(mlen)):
+                sel = np.flatnonzero(mlen == L)
+                src, dst, wsel = indptr[mid[sel]], offset[sel], wk[sel]
+                for j in range(int(L)):
+                    data[dst + j] = wsel * data[src + j]
+                    indices[dst + j] = indices[src + j]
+            offset += mlen
+        return max(float(np.abs(x).max(initial=0.0)) for x in w)
+
+    max_coef = max([max_coef] + work.map(flip_rows, ie.size))
+    M = sp.csr_array((data, indices, indptr), shape=(npts, n_free))
+    M.sort_indices()
+    M.eliminate_zeros()
+    return M, max_coef

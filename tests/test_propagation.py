@@ -190,3 +190,29 @@ def test_patch_points_is_the_gather_of_the_net(shape):
     np.testing.assert_array_equal(space.control_points(free), (space.M @ free)[space.point_index])
     with pytest.raises(ValueError, match="rows"):
         space.patch_points(net[:-1])
+
+
+def _space_arrays(space) -> dict:
+    M = space.M
+    return dict(data=M.data, indices=M.indices, indptr=M.indptr, point_index=space.point_index,
+                free_kind=space.free_kind, free_point=space.free_point,
+                singular=space.singular_vertices, frame_scale=space.frame_scale)
+
+
+@settings(max_examples=30, deadline=None)
+@given(triangulations(), st.integers(1, 50))
+def test_threaded_build_equals_the_inline_build_bit_for_bit(case, chunk):
+    """Large meshes build M on ranges of edges in threads; the ranges must not change a bit."""
+    from trispline.spline import _parallel
+
+    kind, uv, faces = case
+    inline = _space_arrays(build_space(uv, faces))
+    saved = _parallel.PARALLEL_MIN, _parallel.CHUNK
+    try:
+        _parallel.PARALLEL_MIN, _parallel.CHUNK = 1, chunk  # force threads, many small ranges
+        threaded = _space_arrays(build_space(uv, faces))
+    finally:
+        _parallel.PARALLEL_MIN, _parallel.CHUNK = saved
+    for name, value in inline.items():
+        assert threaded[name].dtype == value.dtype, name
+        np.testing.assert_array_equal(threaded[name], value, err_msg=f"{kind}: {name}")
