@@ -25,21 +25,27 @@ def index_dtype(*counts: int) -> type:
 PREFAULT_BYTES = 32 << 20
 
 
-def empty(shape: int | tuple[int, ...], dtype=np.float64) -> np.ndarray:
-    """``np.empty(shape, dtype)``, its pages touched in parallel when it is large.
+def full(shape: int | tuple[int, ...], value, dtype=np.float64) -> np.ndarray:
+    """``np.full(shape, value, dtype)``; a large array is filled by a thread per core.
 
-    The contents are unspecified (zeros in practice), as for ``np.empty``.
+    Filling is the first touch of every page, so the page faults split over the cores.
     """
     out = np.empty(shape, dtype)
     workers = min(os.cpu_count() or 1, 8)
     if out.nbytes < PREFAULT_BYTES or workers < 2:
+        out.fill(value)
         return out
-    flat = out.reshape(-1).view(np.uint8)
+    flat = out.reshape(-1)
     bounds = np.linspace(0, flat.size, 4 * workers + 1).astype(np.int64)
 
-    def touch(i: int) -> None:
-        flat[bounds[i] : bounds[i + 1]] = 0  # numpy releases the GIL for the fill
+    def fill(i: int) -> None:
+        flat[bounds[i] : bounds[i + 1]] = value  # numpy releases the GIL for the fill
 
     with ThreadPoolExecutor(workers) as pool:
-        list(pool.map(touch, range(bounds.size - 1)))
+        list(pool.map(fill, range(bounds.size - 1)))
     return out
+
+
+def empty(shape: int | tuple[int, ...], dtype=np.float64) -> np.ndarray:
+    """A zero-filled array whose pages are touched in parallel when it is large."""
+    return full(shape, 0, dtype)

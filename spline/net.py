@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import _memory
 from ._index import CORNER, FLIP, INNER, MID, NCTRL, STAR
 from .topology import Triangulation
 
@@ -71,13 +72,16 @@ def layout_of(tri: Triangulation) -> NetLayout:
 
 
 def point_index(tri: Triangulation) -> np.ndarray:
-    """Global point id of each patch control point: ``(F, 21)`` int64, storage order."""
+    """Global point id of each patch control point: ``(F, 21)``, storage order.
+
+    int32 while the net has fewer than 2**31 points (halves its memory at 1M faces), else int64.
+    """
     lay = layout_of(tri)
     F = tri.faces
     nf = tri.n_faces
     fe = tri.face_edges
     f = np.arange(nf)
-    out = np.empty((nf, NCTRL), np.int64)
+    out = np.empty((nf, NCTRL), _memory.index_dtype(lay.n_points))
     for k in range(3):
         out[:, CORNER[k]] = F[:, k]
         out[:, INNER[k]] = lay.inner(f, k)

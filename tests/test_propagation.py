@@ -180,8 +180,21 @@ def test_non_manifold_edges_and_bowtie_vertices_are_rejected():
     assert tri._fans[2][0] == 1 and tri.vertex_fan(0).tolist() == [0, 2, 1]
 
 
+@pytest.fixture(params=["inline", "threaded"])
+def thread_mode(request, monkeypatch):
+    """Run inline, or force the threaded paths (tiny ranges) that large meshes take."""
+    if request.param == "threaded":
+        from trispline.spline import _parallel, _sparse, propagation
+
+        monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1)
+        monkeypatch.setattr(_parallel, "CHUNK", 7)
+        monkeypatch.setattr(propagation, "PATCH_CHUNK", 5)
+        monkeypatch.setattr(_sparse, "THREADED_NNZ", 0)
+    return request.param
+
+
 @pytest.mark.parametrize("shape", [(), (1,), (3,)])
-def test_patch_points_is_the_gather_of_the_net(shape):
+def test_patch_points_is_the_gather_of_the_net(shape, thread_mode):
     uv, faces = domains.random_delaunay(60, holes=1, seed=4)
     space = build_space(uv, faces)
     net = np.random.default_rng(0).normal(size=(space.n_points,) + shape)

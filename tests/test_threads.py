@@ -1,0 +1,54 @@
+"""Helpers that split large arrays over threads: same results as the one-call numpy/scipy forms."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from trispline.spline import _memory, _parallel, _sparse
+
+
+@pytest.mark.parametrize("n, chunk", [(0, 3), (1, 3), (10, 3), (12, 4), (5, 100)])
+def test_ranges_cover_once_in_order(n, chunk):
+    r = _parallel.ranges(n, chunk)
+    covered = [i for lo, hi in r for i in range(lo, hi)]
+    assert covered == list(range(n))
+    assert all(0 < hi - lo <= chunk for lo, hi in r)
+
+
+def test_workers_map_returns_in_order_and_raises(monkeypatch):
+    monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1)
+    with _parallel.Workers(100) as work:
+        assert work.map(lambda lo, hi: (lo, hi), 10, chunk=3) == [(0, 3), (3, 6), (6, 9), (9, 10)]
+        assert work.submit(sum, [1, 2]).result() == 3
+
+        def boom(lo, hi):
+            raise RuntimeError(f"range {lo}")
+
+        with pytest.raises(RuntimeError, match="range"):
+            work.map(boom, 10, chunk=2)
+
+
+@pytest.mark.parametrize("value, dtype", [(0, np.float64), (-1, np.int32), (True, bool), (2.5, np.float32)])
+def test_full_fills_large_and_small_arrays(monkeypatch, value, dtype):
+    for nbytes_limit in (_memory.PREFAULT_BYTES, 1):  # small path, then the threaded fill
+        monkeypatch.setattr(_memory, "PREFAULT_BYTES", nbytes_limit)
+        a = _memory.full((37, 5), value, dtype)
+        assert a.dtype == dtype and a.shape == (37, 5)
+        np.testing.assert_array_equal(a, np.full((37, 5), value, dtype))
+    assert not _memory.empty(1000).any()
+
+
+@pytest.mark.parametrize("d", [1, 3, 4])
+def test_threaded_matmul_is_bit_identical_to_scipy(monkeypatch, d):
+    rng = np.random.default_rng(d)
+    M = sp.csr_array(sp.random(503, 211, density=0.03, format="csr", random_state=rng))
+    x = rng.normal(size=(211, d))
+    expected = M @ x
+    monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1)
+    monkeypatch.setattr(_parallel, "CHUNK", 17)
+    monkeypatch.setattr(_sparse, "THREADED_NNZ", 0)
+    got = _sparse.matmul(M, x)
+    assert got.shape == expected.shape
+    np.testing.assert_array_equal(got, expected)
+    np.testing.assert_array_equal(_sparse.matmul(M, x[:, 0]), M @ x[:, 0])  # 1-D: scipy's own path
