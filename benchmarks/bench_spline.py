@@ -6,7 +6,10 @@ memory (the child's ru_maxrss, interpreter and input mesh included) is measured
 on its own. The first build in a process is 'cold': it pays the page faults of
 its ~2 GB high-water mark, whose price depends on the machine; the benchmark
 measures that price in the same run (writing 1 GiB of fresh memory in a fresh
-process) and prints it above the table.
+process) and prints it below the table. Each child starts after a pause of
+SETTLE_S seconds: a VM that hands freed guest memory back to its host does so
+after ~2 s, so without the pause a child would inherit the previous process's
+freed (still backed) memory and its cold build would look faster than a user's.
 
     python benchmarks/bench_spline.py [--sizes 10000 100000 1000000] [--kind perturbed|alternate|delaunay]
 """
@@ -18,6 +21,9 @@ import resource
 import subprocess
 import sys
 import time
+
+#: Seconds to wait before each measured process (see the module docstring).
+SETTLE_S = 3.0
 
 CHILD = r"""
 import json, sys, time
@@ -78,12 +84,14 @@ def first_touch_cost() -> tuple[float, float]:
     handed back to the host (memory balloon, free page reporting) fault it back
     in at several times that. The cold build pays it on its ~2 GB high-water mark.
     """
+    time.sleep(SETTLE_S)
     out = subprocess.run([sys.executable, "-c", PROBE], check=True, capture_output=True, text=True)
     wall, kernel = (float(x) for x in out.stdout.split())
     return wall, kernel
 
 
 def run(n_faces: int, kind: str, repeat: int) -> dict:
+    time.sleep(SETTLE_S)
     out = subprocess.run([sys.executable, "-c", CHILD, str(n_faces), kind, str(repeat)], check=True,
                          capture_output=True, text=True)
     rec = json.loads(out.stdout.strip().splitlines()[-1])
@@ -97,10 +105,7 @@ def main() -> None:
     ap.add_argument("--kind", default="perturbed", choices=["perturbed", "alternate", "delaunay"])
     ap.add_argument("--repeat", type=int, default=2, help="builds per process: the first is cold, the rest warm")
     args = ap.parse_args()
-    probe_wall, probe_sys = first_touch_cost()
     print(f"# build M + propagate ({args.kind} triangulations); peak RSS per child process;")
-    print(f"# this machine writes 1 GiB of fresh memory in {probe_wall:.2f} s ({probe_sys:.2f} s kernel) "
-          "in a fresh process (0.07 s here when that memory is still resident from a previous process)")
     print("# 'cold' = first build in a fresh process (pays first-touch page faults: see sys s), 'warm' = best later build")
     hdr = (f"{'faces':>9} {'run':>5} {'topology s':>10} {'build M s':>10} {'propagate s':>11} {'total s':>8} "
            f"{'user s':>7} {'sys s':>6} {'us/face':>8} {'nnz(M)':>11} {'singular':>8} {'elim.v':>7} {'C1 rel':>8} {'peak GB':>8}")
@@ -117,6 +122,9 @@ def main() -> None:
                   f"{x['user']:>7.2f} {x['sys']:>6.2f} {1e6 * total / r['faces']:>8.2f} {r['nnz']:>11} {r['singular']:>8} "
                   f"{r['eliminated']:>7} {r['c1']:>8.1e} {r['peak_gb']:>8.2f}")
     print("target: 1M faces under 5 s total and 6 GB; us/face flat (linear cost)")
+    probe_wall, probe_sys = first_touch_cost()
+    print(f"# this machine writes 1 GiB of fresh memory in {probe_wall:.2f} s ({probe_sys:.2f} s kernel) "
+          "on one thread in a fresh process (0.07 s here when that memory is still resident from a previous process)")
 
 
 if __name__ == "__main__":

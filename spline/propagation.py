@@ -44,6 +44,8 @@ SINGULAR_TOL = 1e-13
 #: Pivot preference of inner points relative to middle edge points.
 INNER_PIVOT_WEIGHT = 0.2
 
+#: Vertex systems of one shape eliminated together (bounds the batch's temporaries).
+SYSTEM_BATCH = 2048
 #: Faces per range of the threaded gather in ``SplineSpace.patch_points``.
 PATCH_CHUNK = 1 << 14
 
@@ -305,13 +307,16 @@ def _eliminate(A: np.ndarray, K: np.ndarray, weight: np.ndarray, tol: float):
 
 
 
-def _vertex_systems(tri: Triangulation, lay: NetLayout, ie: np.ndarray, c2: np.ndarray, bad_v: np.ndarray,
-                    eq_sel: tuple[np.ndarray, np.ndarray], singular_tol: float, inner_weight: float) -> _Eliminated:
-    """Reduce the ``i = 1`` systems of the vertices flagged in ``bad_v`` (batched, by shape).
+def _vertex_systems(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, ie: np.ndarray, c2: np.ndarray,
+                    bad_v: np.ndarray, eq_sel: tuple[np.ndarray, np.ndarray], singular_tol: float,
+                    inner_weight: float) -> _Eliminated:
+    """Reduce the ``i = 1`` systems of the vertices flagged in ``bad_v``.
 
-    ``eq_sel``: positions in ``ie`` of the equations at end 0 and at end 1 whose
-    vertex is flagged. Equations are ordered end-0 first, each in ``ie`` order,
-    and so are the ranks of equations and corners inside a vertex.
+    Systems of one shape (corner count, equation count) are eliminated together,
+    in batches of at most ``SYSTEM_BATCH`` vertices (small temporaries; batches
+    run in threads). ``eq_sel``: positions in ``ie`` of the equations at end 0 and
+    at end 1 whose vertex is flagged. Equations are ordered end-0 first, each in
+    ``ie`` order, and so are the ranks of equations and corners inside a vertex.
     """
     out = _Eliminated(n_systems=int(bad_v.sum()))
     if out.n_systems == 0:
@@ -339,22 +344,31 @@ def _vertex_systems(tri: Triangulation, lay: NetLayout, ie: np.ndarray, c2: np.n
     col_p = rank_b[np.searchsorted(cb, 3 * f0 + eq_kp)]
     col_q = rank_b[np.searchsorted(cb, 3 * f1 + eq_kq)]
 
-    shape_key = np.where(bad_v, n_c * (n_e.max(initial=0) + 1) + n_e, -1)
-    eq_group_key = shape_key[eq_s]
-    corner_key = shape_key[corner_v[cb]]
-    for key in np.unique(shape_key[bad_v]):
-        verts = np.flatnonzero(shape_key == key)
-        nc, m = int(n_c[verts[0]]), int(n_e[verts[0]])
-        nb = verts.size
-        slot = np.full(nv, -1, np.int64)
-        slot[verts] = np.arange(nb)
+    # flagged vertices grouped by system shape (increasing inside a group); every
+    # equation and corner is found by its vertex's position in that order
+    shape_key = n_c * (n_e.max(initial=0) + 1) + n_e
+    bverts = np.flatnonzero(bad_v)
+    bverts = bverts[np.argsort(shape_key[bverts], kind="stable")]
+    _, g_first, g_count = np.unique(shape_key[bverts], return_index=True, return_counts=True)
+    vpos = np.full(nv, -1, np.int64)
+    vpos[bverts] = np.arange(bverts.size)
+    eq_pos = vpos[eq_s]
+    e_order = np.argsort(eq_pos, kind="stable")
+    eq_pos = eq_pos[e_order]
+    c_pos = vpos[corner_v[cb]]
+    c_order = np.argsort(c_pos, kind="stable")
+    c_pos = c_pos[c_order]
+
+    def batch(p0: int, p1: int) -> tuple:
+        """Eliminate the systems of the vertices at positions p0:p1 (all of one shape)."""
+        verts = bverts[p0:p1]
+        nc, m, nb = int(n_c[verts[0]]), int(n_e[verts[0]]), verts.size
+        eqi = e_order[np.searchsorted(eq_pos, p0) : np.searchsorted(eq_pos, p1)]
+        ci = c_order[np.searchsorted(c_pos, p0) : np.searchsorted(c_pos, p1)]
         # global ids of the unknowns: inner points (by corner rank) then mids (by eq rank)
         col_pid = np.empty((nb, nc + m), np.int64)
-        in_group = corner_key == key
-        cidx = cb[in_group]
-        col_pid[slot[corner_v[cidx]], rank_b[in_group]] = lay.inner0 + cidx  # inner id = inner0 + 3f + k
-        eqi = np.flatnonzero(eq_group_key == key)
-        bi, ri = slot[eq_s[eqi]], eq_rank[eqi]
+        col_pid[vpos[corner_v[cb[ci]]] - p0, rank_b[ci]] = lay.inner0 + cb[ci]  # inner id = inner0 + 3f + k
+        bi, ri = vpos[eq_s[eqi]] - p0, eq_rank[eqi]
         col_pid[bi, nc + ri] = lay.mid(eq_e[eqi], eq_end[eqi])
         star_pid = np.empty((nb, m), np.int64)
         star_pid[bi, ri] = lay.star(eq_e[eqi], eq_end[eqi])
@@ -366,29 +380,34 @@ def _vertex_systems(tri: Triangulation, lay: NetLayout, ie: np.ndarray, c2: np.n
         K[bi, ri, ri] = coef[eqi, 3]
         weight = np.concatenate([np.full(nc, inner_weight), np.ones(m)])
         piv = _eliminate(A, K, weight, singular_tol)
-        # singular vertices: rows without pivot
-        lost = (piv < 0).sum(1)
-        if lost.any():
-            out.singular.append(np.repeat(verts[lost > 0], lost[lost > 0]))
+        lost = (piv < 0).sum(1)  # singular vertices: rows without pivot
+        singular = np.repeat(verts[lost > 0], lost[lost > 0])
         is_piv_col = np.zeros((nb, nc + m), bool)
         pb, pr = np.nonzero(piv >= 0)
         is_piv_col[pb, piv[pb, pr]] = True
-        out.free.append(col_pid[~is_piv_col])
         # dependent rows: unknown[piv] = -sum_j A[r, j] u_j - sum_k K[r, k] star_k (j free columns)
         dep = col_pid[pb, piv[pb, pr]]
         Ar = A[pb, pr]  # (npiv, c)
         Ar[is_piv_col[pb]] = 0.0
-        jj, cc = np.nonzero(Ar)
-        out.rows.append(dep[jj])
-        out.cols.append(col_pid[pb[jj], cc])
-        out.vals.append(-Ar[jj, cc])
+        ja, ca = np.nonzero(Ar)
         Kr = K[pb, pr]
-        jj, cc = np.nonzero(Kr)
-        out.rows.append(dep[jj])
-        out.cols.append(star_pid[pb[jj], cc])
-        out.vals.append(-Kr[jj, cc])
-        if Ar.size:
-            out.max_coef = max(out.max_coef, float(np.abs(Ar).max()), float(np.abs(Kr).max()))
+        jk, ck = np.nonzero(Kr)
+        big = max(float(np.abs(Ar).max()), float(np.abs(Kr).max())) if Ar.size else 0.0
+        return (singular, col_pid[~is_piv_col], (dep[ja], col_pid[pb[ja], ca], -Ar[ja, ca]),
+                (dep[jk], star_pid[pb[jk], ck], -Kr[jk, ck]), big)
+
+    futures = [work.submit(batch, int(g0 + lo), int(g0 + hi))
+               for g0, gn in zip(g_first, g_count) for lo, hi in _parallel.ranges(int(gn), SYSTEM_BATCH)]
+    for fut in futures:  # in group and position order: the output does not depend on the batching
+        singular, free, ra, rk, big = fut.result()
+        if singular.size:
+            out.singular.append(singular)
+        out.free.append(free)
+        for part in (ra, rk):
+            out.rows.append(part[0])
+            out.cols.append(part[1])
+            out.vals.append(part[2])
+        out.max_coef = max(out.max_coef, big)
     return out
 
 
@@ -484,7 +503,7 @@ def build_space(
 
         slow_eqs = work.map(classify, n_ie)
         tick("fast_path")
-        elim = _vertex_systems(tri, lay, ie, c2, bad_v,
+        elim = _vertex_systems(work, tri, lay, ie, c2, bad_v,
                                tuple(_parallel.concat([s[j] for s in slow_eqs]) for j in range(2)),
                                singular_tol, inner_weight)
         tick("elimination")
