@@ -196,15 +196,6 @@ class SplineSpace:
         return out
 
 
-def _ragged_gather(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Positions of all entries of CSR ``rows`` and the index of the row each came from."""
-    start = indptr[rows]
-    length = indptr[rows + 1] - start
-    owner = np.repeat(np.arange(rows.size), length)
-    offs = np.arange(owner.size) - np.repeat(np.cumsum(length) - length, length)
-    return start[owner] + offs, owner
-
-
 def _diamond_ids(tri: Triangulation, e: np.ndarray) -> tuple[np.ndarray, ...]:
     """For interior edges ``e = (a, b)``: ``a, b, f0, f1, k0, k1``.
 
@@ -241,11 +232,19 @@ def _star_rows(edges: np.ndarray, UV: np.ndarray, frame_scale: np.ndarray, nv: i
 
 @dataclass
 class _Eliminated:
-    """What the eliminated vertex systems contribute: point rows in terms of points."""
+    """What the eliminated vertex systems contribute, one list entry per batch.
 
-    rows: list = field(default_factory=list)  # dependent point ids
-    cols: list = field(default_factory=list)  # point ids (free points or star points)
-    vals: list = field(default_factory=list)
+    A dependent point's row is ``sum a_vals * (free point a_cols) + frame @ (z_s, frame_s)``:
+    its free inner/middle points, then its star points already expanded into the
+    three free frame variables of its vertex ``s`` (so a row has no duplicate columns).
+    """
+
+    dep: list = field(default_factory=list)  # (n,) dependent point ids
+    n_a: list = field(default_factory=list)  # (n,) free-point entries per row
+    a_cols: list = field(default_factory=list)  # (sum n_a,) point ids of free points, row after row
+    a_vals: list = field(default_factory=list)
+    frame: list = field(default_factory=list)  # (n, 3) weights of z_s and the two frame points
+    vertex: list = field(default_factory=list)  # (n,) the vertex s of each row
     free: list = field(default_factory=list)  # point ids left free
     singular: list = field(default_factory=list)
     max_coef: float = 0.0
@@ -308,7 +307,7 @@ def _eliminate(A: np.ndarray, K: np.ndarray, weight: np.ndarray, tol: float):
 
 
 def _vertex_systems(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, ie: np.ndarray, c2: np.ndarray,
-                    bad_v: np.ndarray, eq_sel: tuple[np.ndarray, np.ndarray], singular_tol: float,
+                    frame_scale: np.ndarray, bad_v: np.ndarray, eq_sel: tuple[np.ndarray, np.ndarray], singular_tol: float,
                     inner_weight: float) -> _Eliminated:
     """Reduce the ``i = 1`` systems of the vertices flagged in ``bad_v``.
 
@@ -341,8 +340,11 @@ def _vertex_systems(work: _parallel.Workers, tri: Triangulation, lay: NetLayout,
     cb = np.flatnonzero(bad_v[corner_v])  # corners at flagged vertices, in corner order
     _, rank_b, _ = _rank_within(corner_v[cb], nv)
     _, eq_rank, _ = _rank_within(eq_s, nv)
-    col_p = rank_b[np.searchsorted(cb, 3 * f0 + eq_kp)]
-    col_q = rank_b[np.searchsorted(cb, 3 * f1 + eq_kq)]
+    corner_rank = np.full(corner_v.size, -1, np.int32)  # rank of a corner among its vertex's corners
+    corner_rank[cb] = rank_b
+    col_p = corner_rank[3 * f0 + eq_kp]
+    col_q = corner_rank[3 * f1 + eq_kq]
+    del corner_rank
 
     # flagged vertices grouped by system shape (increasing inside a group); every
     # equation and corner is found by its vertex's position in that order
@@ -385,28 +387,35 @@ def _vertex_systems(work: _parallel.Workers, tri: Triangulation, lay: NetLayout,
         is_piv_col = np.zeros((nb, nc + m), bool)
         pb, pr = np.nonzero(piv >= 0)
         is_piv_col[pb, piv[pb, pr]] = True
-        # dependent rows: unknown[piv] = -sum_j A[r, j] u_j - sum_k K[r, k] star_k (j free columns)
+        # dependent rows: unknown[piv] = -sum_j A[r, j] u_j - sum_k K[r, k] star_k (j free columns);
+        # every star of the vertex is affine in its frame, so the star part collapses to 3 weights
         dep = col_pid[pb, piv[pb, pr]]
         Ar = A[pb, pr]  # (npiv, c)
         Ar[is_piv_col[pb]] = 0.0
         ja, ca = np.nonzero(Ar)
-        Kr = K[pb, pr]
-        jk, ck = np.nonzero(Kr)
+        Kr = K[pb, pr]  # (npiv, m)
+        sv, _ = _star_rows(tri.edges, tri.uv, frame_scale, nv, (star_pid - lay.star0).reshape(-1), np.int64)
+        sv = sv.reshape(nb, m, 3)[pb]
+        frame = -Kr[:, 0, None] * sv[:, 0]
+        for k in range(1, m):  # a fixed summation order: batching cannot change a bit
+            frame -= Kr[:, k, None] * sv[:, k]
         big = max(float(np.abs(Ar).max()), float(np.abs(Kr).max())) if Ar.size else 0.0
-        return (singular, col_pid[~is_piv_col], (dep[ja], col_pid[pb[ja], ca], -Ar[ja, ca]),
-                (dep[jk], star_pid[pb[jk], ck], -Kr[jk, ck]), big)
+        return (singular, col_pid[~is_piv_col], dep, np.bincount(ja, minlength=pb.size),
+                col_pid[pb[ja], ca], -Ar[ja, ca], frame, verts[pb], big)
 
     futures = [work.submit(batch, int(g0 + lo), int(g0 + hi))
                for g0, gn in zip(g_first, g_count) for lo, hi in _parallel.ranges(int(gn), SYSTEM_BATCH)]
     for fut in futures:  # in group and position order: the output does not depend on the batching
-        singular, free, ra, rk, big = fut.result()
+        singular, free, dep, n_a, a_cols, a_vals, frame, vertex, big = fut.result()
         if singular.size:
             out.singular.append(singular)
         out.free.append(free)
-        for part in (ra, rk):
-            out.rows.append(part[0])
-            out.cols.append(part[1])
-            out.vals.append(part[2])
+        out.dep.append(dep)
+        out.n_a.append(n_a)
+        out.a_cols.append(a_cols)
+        out.a_vals.append(a_vals)
+        out.frame.append(frame)
+        out.vertex.append(vertex)
         out.max_coef = max(out.max_coef, big)
     return out
 
@@ -503,7 +512,7 @@ def build_space(
 
         slow_eqs = work.map(classify, n_ie)
         tick("fast_path")
-        elim = _vertex_systems(work, tri, lay, ie, c2, bad_v,
+        elim = _vertex_systems(work, tri, lay, ie, c2, frame_scale, bad_v,
                                tuple(_parallel.concat([s[j] for s in slow_eqs]) for j in range(2)),
                                singular_tol, inner_weight)
         tick("elimination")
@@ -573,24 +582,20 @@ def _assemble(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, ie: n
     nv, npts, edges, UV, F = tri.n_vertices, lay.n_points, tri.edges, tri.uv, tri.faces
     col_t = free_of_point.dtype
 
-    # points of eliminated vertex systems: expand star references into frames
-    rows, cols = (_parallel.concat(x) for x in (elim.rows, elim.cols))
-    vals = _parallel.concat(elim.vals, np.float64)
-    is_star = (cols >= lay.star0) & (cols < lay.mid0)
-    sv, sc = _star_rows(edges, UV, frame_scale, nv, cols[is_star] - lay.star0, col_t)
-    s_rows = np.concatenate([rows[~is_star], np.repeat(rows[is_star], 3)])
-    s_cols = np.concatenate([free_of_point[cols[~is_star]], sc.ravel()])
-    s_vals = np.concatenate([vals[~is_star], (vals[is_star, None] * sv).ravel()])
+    # rows of eliminated vertex systems: free inner/middle points, then z_s and the frame
+    s_dep, s_na, s_vertex = (_parallel.concat(x) for x in (elim.dep, elim.n_a, elim.vertex))
+    s_cols = free_of_point[_parallel.concat(elim.a_cols)]
+    s_vals = _parallel.concat(elim.a_vals, np.float64)
+    s_frame = np.concatenate(elim.frame) if elim.frame else np.zeros((0, 3))
     if (s_cols < 0).any():  # pragma: no cover - internal consistency
         raise AssertionError("an eliminated point references a dependent point")
-    s_ids, s_local = np.unique(s_rows, return_inverse=True)
-    S = sp.csr_array((s_vals, (s_local, s_cols)), shape=(s_ids.size, n_free))
-    S.sum_duplicates()
+    s_ptr = np.zeros(s_dep.size + 1, np.int64)
+    np.cumsum(s_na, out=s_ptr[1:])
+    length[s_dep] = s_na + 3
 
     length[:nv] = 1
     length[free_pts] = 1
     length[lay.star0 : lay.mid0] = 3
-    length[s_ids] = np.diff(S.indptr)
 
     def flip_ids(lo: int, hi: int) -> tuple[np.ndarray, ...]:
         """Computed flip, free flip and the diamond's coefficients for interior edges lo:hi."""
@@ -661,10 +666,21 @@ def _assemble(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, ie: n
         return big
 
     max_coef = max(work.map(fast_rows, ie.size), default=0.0)
-    pos, owner = _ragged_gather(S.indptr, np.arange(s_ids.size))
-    dest = indptr[s_ids][owner] + (pos - S.indptr[owner])
-    data[dest] = S.data[pos]
-    indices[dest] = S.indices[pos]
+
+    def eliminated_rows(lo: int, hi: int) -> None:
+        start = indptr[s_dep[lo:hi]]
+        a0, a1 = s_ptr[lo], s_ptr[hi]
+        n_a = s_na[lo:hi]
+        owner = np.repeat(np.arange(hi - lo), n_a)
+        pos = start[owner] + (np.arange(a0, a1) - s_ptr[lo:hi][owner])
+        data[pos] = s_vals[a0:a1]
+        indices[pos] = s_cols[a0:a1]
+        at, v = start + n_a, s_vertex[lo:hi]
+        for j, col in enumerate((v, nv + 2 * v, nv + 2 * v + 1)):
+            data[at + j] = s_frame[lo:hi, j]
+            indices[at + j] = col
+
+    work.map(eliminated_rows, s_dep.size)
 
     def flip_rows(lo: int, hi: int) -> float:
         """Computed flip = w_o other + w_r row(mid_r) + w_s row(mid_s); middle rows are
