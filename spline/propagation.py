@@ -294,8 +294,12 @@ def _eliminate(A: np.ndarray, K: np.ndarray, weight: np.ndarray, tol: float):
         K[b, r, :] /= piv[:, None]
         f = A[b, :, col].copy()  # (nb_active, m) multipliers
         f[np.arange(b.size), r] = 0.0
-        A[b] -= f[:, :, None] * A[b, r, None, :]
-        K[b] -= f[:, :, None] * K[b, r, None, :]
+        if b.size == nb:  # all systems still active: update in place (no gather/scatter copies)
+            A -= f[:, :, None] * A[b, r, None, :]
+            K -= f[:, :, None] * K[b, r, None, :]
+        else:
+            A[b] -= f[:, :, None] * A[b, r, None, :]
+            K[b] -= f[:, :, None] * K[b, r, None, :]
         A[b, :, col] = 0.0
         A[b, r, col] = 1.0
         row_done[b, r] = True
