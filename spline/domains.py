@@ -76,7 +76,9 @@ def fan(n: int, *, closed: bool = True, radius_jitter: float = 0.0, seed: int = 
     span = 2 * np.pi if closed else np.pi * min(1.5, 0.3 * n)
     m = n if closed else n + 1
     ang = np.linspace(0, span, m, endpoint=not closed) if not closed else np.arange(n) * span / n
-    ang = ang + (rng.uniform(-0.3, 0.3, m) * span / m if radius_jitter else 0.0)
+    # angular jitter of +-0.2 of the spacing keeps every gap below 1.4 * 2 pi / 3 < pi, so no
+    # triangle of a closed 3-fan turns over (+-0.3 could, and orient_ccw then made it inconsistent)
+    ang = ang + (rng.uniform(-0.2, 0.2, m) * span / m if radius_jitter else 0.0)
     r = 1.0 + radius_jitter * rng.uniform(-0.5, 0.5, m)
     uv = np.concatenate([[[0.0, 0.0]], np.column_stack([r * np.cos(ang), r * np.sin(ang)])])
     i = np.arange(n)

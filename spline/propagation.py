@@ -380,8 +380,10 @@ def _vertex_systems(work: _parallel.Workers, tri: Triangulation, lay: NetLayout,
         star_pid[bi, ri] = lay.star(eq_e[eqi], eq_end[eqi])
         A = np.zeros((nb, m, nc + m))
         K = np.zeros((nb, m, m))
-        np.add.at(A, (bi, ri, col_q[eqi]), coef[eqi, 0])
-        np.add.at(A, (bi, ri, col_p[eqi]), coef[eqi, 1])
+        # every (system, row, column) is set once: an equation's two inner points are
+        # corners of different faces
+        A[bi, ri, col_q[eqi]] = coef[eqi, 0]
+        A[bi, ri, col_p[eqi]] = coef[eqi, 1]
         A[bi, ri, nc + ri] = coef[eqi, 2]
         K[bi, ri, ri] = coef[eqi, 3]
         weight = np.concatenate([np.full(nc, inner_weight), np.ones(m)])

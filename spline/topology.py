@@ -21,6 +21,7 @@ from functools import cached_property
 
 import numpy as np
 
+from . import _parallel
 from .errors import TriangulationError, first_few
 
 #: Faces whose uv area is below this fraction of the mean face area are rejected.
@@ -209,15 +210,22 @@ class Triangulation:
         Corner ``3 f + k`` sits at vertex ``faces[f, k]``. Rotating CCW around it the
         next face shares the edge from the vertex to local vertex ``k + 2``.
         """
-        F = self.faces
-        e = self.face_edges[:, [1, 2, 0]].reshape(-1)  # corner 3f+k: the edge opposite local k+1
-        v = F.reshape(-1)  # joins v = F[f, k] and w = F[f, k+2]; f traverses it w -> v,
-        w = F[:, [2, 0, 1]].reshape(-1)  # so f is on side (w > v) of the edge tables
-        other = 2 * e + (w < v)
-        g = self.edge_faces.reshape(-1)[other]
-        # the neighbour traverses v -> w: the half-edge opposite its local j runs j+1 -> j+2
-        kg = (self.edge_opposite.reshape(-1)[other] + 1) % 3
-        nxt = np.where(g >= 0, 3 * g + kg, -1)
+        F, fe = self.faces, self.face_edges
+        ef, eo = self.edge_faces.reshape(-1), self.edge_opposite.reshape(-1)
+        nxt = np.empty(3 * self.n_faces, np.int64)
+
+        def faces_range(lo: int, hi: int) -> None:
+            e = fe[lo:hi, [1, 2, 0]].reshape(-1)  # corner 3f+k: the edge opposite local k+1
+            v = F[lo:hi].reshape(-1)  # joins v = F[f, k] and w = F[f, k+2]; f traverses it w -> v,
+            w = F[lo:hi, [2, 0, 1]].reshape(-1)  # so f is on side (w > v) of the edge tables
+            other = 2 * e + (w < v)
+            g = ef[other]
+            # the neighbour traverses v -> w: the half-edge opposite its local j runs j+1 -> j+2
+            kg = (eo[other] + 1) % 3
+            nxt[3 * lo : 3 * hi] = np.where(g >= 0, 3 * g + kg, -1)
+
+        with _parallel.Workers(self.n_faces) as work:  # ranges of faces, a thread per core
+            work.map(faces_range, self.n_faces)
         return nxt
 
     @cached_property
@@ -241,11 +249,13 @@ class Triangulation:
         interior_starts = first[~has_start & (first >= 0)]
         all_starts = np.concatenate([starts, interior_starts])
         n_start_per_v = np.bincount(v_of[all_starts], minlength=nv)
-        # walk every fan in lockstep
-        walked = [all_starts]
+        # walk every fan in lockstep, remembering each step's (fan, corner) pairs
+        n_fans = all_starts.size
+        walked = []
+        fan_len = np.ones(n_fans, np.int64)
         cur = all_starts.copy()
-        origin = all_starts.copy()
-        alive = np.arange(all_starts.size)
+        origin = all_starts
+        alive = np.arange(n_fans)
         for _ in range(n3):
             c = nxt[cur[alive]]
             ok = (c >= 0) & (c != origin[alive])
@@ -253,33 +263,24 @@ class Triangulation:
             if alive.size == 0:
                 break
             cur[alive] = c[ok]
+            fan_len[alive] += 1
             walked.append((alive, c[ok]))
-        # assemble: fan id, step, corner
-        fan_ids = [np.arange(all_starts.size)]
-        steps = [np.zeros(all_starts.size, np.int64)]
-        corners = [all_starts]
-        for s, (ids, cs) in enumerate(walked[1:], start=1):
-            fan_ids.append(ids)
-            steps.append(np.full(ids.size, s, np.int64))
-            corners.append(cs)
-        fan_ids = np.concatenate(fan_ids)
-        steps = np.concatenate(steps)
-        walked_corners = np.concatenate(corners)
         # fans ordered by vertex (then fan id), each fan's corners by step: place every
-        # corner at its fan's offset plus its step (no sort of all 3F corners)
+        # corner at its fan's offset plus its step (no sort or concatenation of all 3F corners)
         fan_order = np.argsort(v_of[all_starts], kind="stable")
-        fan_len = np.bincount(fan_ids, minlength=all_starts.size)
-        fan_offset = np.empty(all_starts.size, np.int64)
+        fan_offset = np.empty(n_fans, np.int64)
         fan_offset[fan_order] = np.cumsum(fan_len[fan_order]) - fan_len[fan_order]
-        corners = np.empty(walked_corners.size, np.int64)
-        corners[fan_offset[fan_ids] + steps] = walked_corners
+        corners = np.empty(int(fan_len.sum()), np.int64)
+        corners[fan_offset] = all_starts
+        for step, (ids, cs) in enumerate(walked, start=1):
+            corners[fan_offset[ids] + step] = cs
         fan_count = n_start_per_v.copy()
         # a vertex whose walk does not reach all of its corners has several fans
         reached = np.bincount(v_of[corners], minlength=nv)
         total = np.bincount(v_of, minlength=nv)
         fan_count[reached != total] = np.maximum(fan_count[reached != total], 2)
         ptr = np.zeros(nv + 1, np.int64)
-        np.cumsum(np.bincount(v_of[corners], minlength=nv), out=ptr[1:])
+        np.cumsum(reached, out=ptr[1:])
         return ptr, corners, fan_count
 
     @property
