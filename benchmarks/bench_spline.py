@@ -11,7 +11,7 @@ SETTLE_S seconds: a VM that hands freed guest memory back to its host does so
 after ~2 s, so without the pause a child would inherit the previous process's
 freed (still backed) memory and its cold build would look faster than a user's.
 
-    python benchmarks/bench_spline.py [--sizes 10000 100000 1000000] [--kind perturbed|alternate|delaunay]
+    python benchmarks/bench_spline.py [--sizes 10000 100000 1000000] [--kind perturbed|alternate|delaunay|delaunay-ordered]
 """
 from __future__ import annotations
 
@@ -33,8 +33,15 @@ from trispline.spline.topology import Triangulation
 from trispline.spline.propagation import build_space
 from trispline.spline.continuity import continuity_report
 n_faces, kind = int(sys.argv[1]), sys.argv[2]
-if kind == "delaunay":
-    uv, f = domains.random_delaunay(n_faces // 2, seed=0)
+if kind.startswith("delaunay"):
+    uv, f = domains.random_delaunay(n_faces // 2, seed=0)  # vertices in random order
+    if kind == "delaunay-ordered":  # vertices in 256 x 256 cells row by row, faces by first vertex: like a scan
+        cell = np.floor(uv * 256).astype(np.int64)
+        order = np.argsort(cell[:, 1] * 256 + cell[:, 0], kind="stable")
+        rank = np.empty_like(order)
+        rank[order] = np.arange(order.size)
+        uv, f = uv[order], rank[f]
+        f = f[np.argsort(f.min(1), kind="stable")]
 else:
     n = max(2, int(round((n_faces / 2) ** 0.5)))
     uv, f = domains.grid(n, diagonal="regular" if kind == "perturbed" else "alternate")
@@ -102,7 +109,7 @@ def run(n_faces: int, kind: str, repeat: int) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sizes", type=int, nargs="+", default=[10_000, 100_000, 1_000_000])
-    ap.add_argument("--kind", default="perturbed", choices=["perturbed", "alternate", "delaunay"])
+    ap.add_argument("--kind", default="perturbed", choices=["perturbed", "alternate", "delaunay", "delaunay-ordered"])
     ap.add_argument("--repeat", type=int, default=2, help="builds per process: the first is cold, the rest warm")
     args = ap.parse_args()
     print(f"# build M + propagate ({args.kind} triangulations); peak RSS per child process;")
