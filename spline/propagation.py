@@ -249,16 +249,6 @@ class _Eliminated:
     singular: list = field(default_factory=list)
     max_coef: float = 0.0
     n_systems: int = 0
-def _rank_within(keys: np.ndarray, n_groups: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Stable order by ``keys``, each element's rank inside its group, and group counts."""
-    order = np.argsort(keys, kind="stable")
-    counts = np.bincount(keys, minlength=n_groups)
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    rank = np.empty(keys.size, np.int64)
-    rank[order] = np.arange(keys.size) - starts[keys[order]]
-    return order, rank, counts
-
-
 def _eliminate(A: np.ndarray, K: np.ndarray, weight: np.ndarray, tol: float):
     """Batched Gauss--Jordan with weighted complete pivoting, in place.
 
@@ -310,84 +300,58 @@ def _eliminate(A: np.ndarray, K: np.ndarray, weight: np.ndarray, tol: float):
 
 
 
-def _vertex_systems(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, ie: np.ndarray, c2: np.ndarray,
-                    frame_scale: np.ndarray, bad_v: np.ndarray, eq_sel: tuple[np.ndarray, np.ndarray], singular_tol: float,
-                    inner_weight: float) -> _Eliminated:
-    """Reduce the ``i = 1`` systems of the vertices flagged in ``bad_v``.
+@dataclass(frozen=True)
+class _Systems:
+    """The flagged vertices' ``i = 1`` systems, grouped by shape, ready to eliminate in batches.
 
-    Systems of one shape (corner count, equation count) are eliminated together,
-    in batches of at most ``SYSTEM_BATCH`` vertices (small temporaries; batches
-    run in threads). ``eq_sel``: positions in ``ie`` of the equations at end 0 and
-    at end 1 whose vertex is flagged. Equations are ordered end-0 first, each in
-    ``ie`` order, and so are the ranks of equations and corners inside a vertex.
+    ``verts``: flagged vertices grouped by shape (corner count, equation count),
+    increasing inside a group; equations (``eq_*``, sorted by their vertex's position
+    in ``verts``) and corners (``c_*``, likewise) are found by binary search.
     """
-    out = _Eliminated(n_systems=int(bad_v.sum()))
-    if out.n_systems == 0:
-        return out
-    F, nv = tri.faces, tri.n_vertices
-    i0, i1 = eq_sel
-    ii = np.concatenate([i0, i1])
-    at_b = np.concatenate([np.zeros(i0.size, bool), np.ones(i1.size, bool)])
-    eq_e = ie[ii]
-    a, b, f0, f1, k0, k1 = _diamond_ids(tri, eq_e)
-    eq_s = np.where(at_b, b, a)
-    eq_end = at_b.astype(np.int64)
-    eq_kp = np.where(at_b, (k0 + 2) % 3, (k0 + 1) % 3)
-    eq_kq = np.where(at_b, (k1 + 1) % 3, (k1 + 2) % 3)
-    # equation coefficients of (inner_q, inner_p, mid, star): at end 0 (r = b, s = a) the
-    # diamond's r and s coefficients swap
-    coef = c2[ii]
-    coef[~at_b] = coef[~at_b][:, [0, 1, 3, 2]]
-    corner_v = F.ravel()
-    n_c = np.bincount(corner_v, minlength=nv)
-    n_e = np.bincount(tri.edges[ie].ravel(), minlength=nv)  # interior edges (= equations) per vertex
-    cb = np.flatnonzero(bad_v[corner_v])  # corners at flagged vertices, in corner order
-    _, rank_b, _ = _rank_within(corner_v[cb], nv)
-    _, eq_rank, _ = _rank_within(eq_s, nv)
-    corner_rank = np.full(corner_v.size, -1, np.int32)  # rank of a corner among its vertex's corners
-    corner_rank[cb] = rank_b
-    col_p = corner_rank[3 * f0 + eq_kp]
-    col_q = corner_rank[3 * f1 + eq_kq]
-    del corner_rank
 
-    # flagged vertices grouped by system shape (increasing inside a group); every
-    # equation and corner is found by its vertex's position in that order
-    shape_key = n_c * (n_e.max(initial=0) + 1) + n_e
-    bverts = np.flatnonzero(bad_v)
-    bverts = bverts[np.argsort(shape_key[bverts], kind="stable")]
-    _, g_first, g_count = np.unique(shape_key[bverts], return_index=True, return_counts=True)
-    vpos = np.full(nv, -1, np.int64)
-    vpos[bverts] = np.arange(bverts.size)
-    eq_pos = vpos[eq_s]
-    e_order = np.argsort(eq_pos, kind="stable")
-    eq_pos = eq_pos[e_order]
-    c_pos = vpos[corner_v[cb]]
-    c_order = np.argsort(c_pos, kind="stable")
-    c_pos = c_pos[c_order]
+    tri: Triangulation
+    lay: NetLayout
+    frame_scale: np.ndarray
+    verts: np.ndarray  # (n,) flagged vertices
+    n_c: np.ndarray  # (V,) corners per vertex
+    n_e: np.ndarray  # (V,) interior edges (= equations) per vertex
+    eq_pos: np.ndarray  # (neq,) position of the equation's vertex in verts, sorted
+    eq_rank: np.ndarray  # (neq,) rank of the equation among its vertex's equations
+    eq_mid: np.ndarray  # (neq,) middle point id (the unknown the paper solves for)
+    eq_star: np.ndarray  # (neq,) star point id
+    eq_col: np.ndarray  # (neq, 2) ranks of the inner points (q side, p side) among the vertex's corners
+    eq_coef: np.ndarray  # (neq, 4) coefficients of (inner_q, inner_p, mid, star)
+    c_pos: np.ndarray  # (nco,) position of the corner's vertex in verts, sorted
+    c_rank: np.ndarray  # (nco,) rank of the corner among its vertex's corners
+    c_inner: np.ndarray  # (nco,) inner point id of the corner
+    singular_tol: float
+    inner_weight: float
 
-    def batch(p0: int, p1: int) -> tuple:
-        """Eliminate the systems of the vertices at positions p0:p1 (all of one shape)."""
-        verts = bverts[p0:p1]
-        nc, m, nb = int(n_c[verts[0]]), int(n_e[verts[0]]), verts.size
-        eqi = e_order[np.searchsorted(eq_pos, p0) : np.searchsorted(eq_pos, p1)]
-        ci = c_order[np.searchsorted(c_pos, p0) : np.searchsorted(c_pos, p1)]
+    def batch(self, p0: int, p1: int) -> tuple:
+        """Eliminate the systems of the vertices ``verts[p0:p1]`` (all of one shape)."""
+        lay, nv = self.lay, self.tri.n_vertices
+        verts = self.verts[p0:p1]
+        nc, m, nb = int(self.n_c[verts[0]]), int(self.n_e[verts[0]]), verts.size
+        e0, e1 = np.searchsorted(self.eq_pos, [p0, p1])
+        c0, c1 = np.searchsorted(self.c_pos, [p0, p1])
         # global ids of the unknowns: inner points (by corner rank) then mids (by eq rank)
         col_pid = np.empty((nb, nc + m), np.int64)
-        col_pid[vpos[corner_v[cb[ci]]] - p0, rank_b[ci]] = lay.inner0 + cb[ci]  # inner id = inner0 + 3f + k
-        bi, ri = vpos[eq_s[eqi]] - p0, eq_rank[eqi]
-        col_pid[bi, nc + ri] = lay.mid(eq_e[eqi], eq_end[eqi])
+        col_pid[self.c_pos[c0:c1] - p0, self.c_rank[c0:c1]] = self.c_inner[c0:c1]
+        bi, ri = self.eq_pos[e0:e1] - p0, self.eq_rank[e0:e1]
+        col_pid[bi, nc + ri] = self.eq_mid[e0:e1]
         star_pid = np.empty((nb, m), np.int64)
-        star_pid[bi, ri] = lay.star(eq_e[eqi], eq_end[eqi])
+        star_pid[bi, ri] = self.eq_star[e0:e1]
+        coef, col = self.eq_coef[e0:e1], self.eq_col[e0:e1]
         A = np.zeros((nb, m, nc + m))
         K = np.zeros((nb, m, m))
         # every (system, row, column) is set once: an equation's two inner points are
         # corners of different faces
-        A[bi, ri, col_q[eqi]] = coef[eqi, 0]
-        A[bi, ri, col_p[eqi]] = coef[eqi, 1]
-        A[bi, ri, nc + ri] = coef[eqi, 2]
-        K[bi, ri, ri] = coef[eqi, 3]
-        weight = np.concatenate([np.full(nc, inner_weight), np.ones(m)])
-        piv = _eliminate(A, K, weight, singular_tol)
+        A[bi, ri, col[:, 0]] = coef[:, 0]
+        A[bi, ri, col[:, 1]] = coef[:, 1]
+        A[bi, ri, nc + ri] = coef[:, 2]
+        K[bi, ri, ri] = coef[:, 3]
+        weight = np.concatenate([np.full(nc, self.inner_weight), np.ones(m)])
+        piv = _eliminate(A, K, weight, self.singular_tol)
         lost = (piv < 0).sum(1)  # singular vertices: rows without pivot
         singular = np.repeat(verts[lost > 0], lost[lost > 0])
         is_piv_col = np.zeros((nb, nc + m), bool)
@@ -400,7 +364,8 @@ def _vertex_systems(work: _parallel.Workers, tri: Triangulation, lay: NetLayout,
         Ar[is_piv_col[pb]] = 0.0
         ja, ca = np.nonzero(Ar)
         Kr = K[pb, pr]  # (npiv, m)
-        sv, _ = _star_rows(tri.edges, tri.uv, frame_scale, nv, (star_pid - lay.star0).reshape(-1), np.int64)
+        sv, _ = _star_rows(self.tri.edges, self.tri.uv, self.frame_scale, nv,
+                           (star_pid - lay.star0).reshape(-1), np.int64)
         sv = sv.reshape(nb, m, 3)[pb]
         frame = -Kr[:, 0, None] * sv[:, 0]
         for k in range(1, m):  # a fixed summation order: batching cannot change a bit
@@ -409,7 +374,72 @@ def _vertex_systems(work: _parallel.Workers, tri: Triangulation, lay: NetLayout,
         return (singular, col_pid[~is_piv_col], dep, np.bincount(ja, minlength=pb.size),
                 col_pid[pb[ja], ca], -Ar[ja, ca], frame, verts[pb], big)
 
-    futures = [work.submit(batch, int(g0 + lo), int(g0 + hi))
+
+def _group_ranks(pos: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Stable order by ``pos``, the sorted ``pos``, and each element's rank inside its group."""
+    order = np.argsort(pos, kind="stable")
+    sorted_pos = pos[order]
+    n = sorted_pos.size
+    first = np.zeros(n, np.int64)
+    if n:
+        new = np.flatnonzero(sorted_pos[1:] != sorted_pos[:-1]) + 1
+        first[new] = new
+        np.maximum.accumulate(first, out=first)
+    return order, sorted_pos, np.arange(n) - first
+
+
+def _vertex_systems(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, ie: np.ndarray, c2: np.ndarray,
+                    frame_scale: np.ndarray, bad_v: np.ndarray, eq_sel: tuple[np.ndarray, np.ndarray], singular_tol: float,
+                    inner_weight: float) -> _Eliminated:
+    """Reduce the ``i = 1`` systems of the vertices flagged in ``bad_v``.
+
+    Systems of one shape (corner count, equation count) are eliminated together,
+    in batches of at most ``SYSTEM_BATCH`` vertices (small temporaries; batches
+    run in threads). ``eq_sel``: positions in ``ie`` of the equations at end 0 and
+    at end 1 whose vertex is flagged. Equations are ranked inside their vertex
+    end-0 first, each in ``ie`` order; corners in corner order.
+    """
+    out = _Eliminated(n_systems=int(bad_v.sum()))
+    if out.n_systems == 0:
+        return out
+    F, nv = tri.faces, tri.n_vertices
+    i0, i1 = eq_sel
+    ii = np.concatenate([i0, i1])
+    at_b = np.concatenate([np.zeros(i0.size, bool), np.ones(i1.size, bool)])
+    eq_e = ie[ii]
+    a, b, f0, f1, k0, k1 = _diamond_ids(tri, eq_e)
+    eq_s = np.where(at_b, b, a)
+    # equation coefficients of (inner_q, inner_p, mid, star): at end 0 (r = b, s = a) the
+    # diamond's r and s coefficients swap
+    coef = c2[ii]
+    coef[~at_b] = coef[~at_b][:, [0, 1, 3, 2]]
+    corner_v = F.ravel()
+    n_c = np.bincount(corner_v, minlength=nv)
+    n_e = np.bincount(tri.edges[ie].ravel(), minlength=nv)
+    # flagged vertices grouped by system shape, increasing inside a group
+    shape_key = n_c * (n_e.max(initial=0) + 1) + n_e
+    verts = np.flatnonzero(bad_v)
+    verts = verts[np.argsort(shape_key[verts], kind="stable")]
+    _, g_first, g_count = np.unique(shape_key[verts], return_index=True, return_counts=True)
+    vpos = np.full(nv, -1, np.int64)
+    vpos[verts] = np.arange(verts.size)
+    cb = np.flatnonzero(bad_v[corner_v])  # corners at flagged vertices, in corner order
+    c_order, c_pos, c_rank_sorted = _group_ranks(vpos[corner_v[cb]])
+    corner_rank = np.full(corner_v.size, -1, np.int32)  # rank of a corner among its vertex's corners
+    corner_rank[cb[c_order]] = c_rank_sorted
+    e_order, eq_pos, eq_rank = _group_ranks(vpos[eq_s])
+    e = e_order
+    kp = np.where(at_b[e], (k0[e] + 2) % 3, (k0[e] + 1) % 3)
+    kq = np.where(at_b[e], (k1[e] + 1) % 3, (k1[e] + 2) % 3)
+    end = at_b[e].astype(np.int64)
+    systems = _Systems(
+        tri=tri, lay=lay, frame_scale=frame_scale, verts=verts, n_c=n_c, n_e=n_e,
+        eq_pos=eq_pos, eq_rank=eq_rank, eq_mid=lay.mid(eq_e[e], end), eq_star=lay.star(eq_e[e], end),
+        eq_col=np.column_stack([corner_rank[3 * f1[e] + kq], corner_rank[3 * f0[e] + kp]]),
+        eq_coef=coef[e], c_pos=c_pos, c_rank=c_rank_sorted, c_inner=lay.inner0 + cb[c_order],
+        singular_tol=singular_tol, inner_weight=inner_weight,
+    )
+    futures = [work.submit(systems.batch, int(g0 + lo), int(g0 + hi))
                for g0, gn in zip(g_first, g_count) for lo, hi in _parallel.ranges(int(gn), SYSTEM_BATCH)]
     for fut in futures:  # in group and position order: the output does not depend on the batching
         singular, free, dep, n_a, a_cols, a_vals, frame, vertex, big = fut.result()
