@@ -265,12 +265,13 @@ def _eliminate(A: np.ndarray, K: np.ndarray, weight: np.ndarray, tol: float):
     nb, m, c = A.shape
     piv_col = np.full((nb, m), -1, np.int64)
     row_done = np.zeros((nb, m), bool)
-    col_done = np.zeros((nb, c), bool)
     active = np.ones(nb, bool)
     bidx = np.arange(nb)
     for _ in range(m):
-        avail = ~row_done[:, :, None] & ~col_done[:, None, :]
-        mag = np.where(avail, np.abs(A), 0.0)
+        # available entries: rows not yet pivoted. A pivot's column is exactly zero in every
+        # other row after its elimination step, so used columns need no mask of their own.
+        mag = np.abs(A)
+        mag[row_done] = 0.0
         raw_max = mag.reshape(nb, -1).max(axis=1)
         active &= raw_max > tol
         if not active.any():
@@ -293,7 +294,6 @@ def _eliminate(A: np.ndarray, K: np.ndarray, weight: np.ndarray, tol: float):
         A[b, :, col] = 0.0
         A[b, r, col] = 1.0
         row_done[b, r] = True
-        col_done[b, col] = True
         piv_col[b, r] = col
     return piv_col
 
