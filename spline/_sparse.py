@@ -1,4 +1,4 @@
-"""``M @ x`` for a large CSR matrix and a dense block, on ranges of rows in threads.
+"""Large CSR work on ranges of rows in threads: ``M @ x`` and sorting the column indices.
 
 scipy multiplies on one thread into a freshly allocated output. At 1M faces the
 propagation map has 45M entries and the output 300 MB; splitting the rows over
@@ -57,3 +57,23 @@ def matmul(M: sp.csr_array, x: np.ndarray) -> np.ndarray:
             return M @ x
         work.map(rows, m)
     return out
+
+
+def sort_indices(M: sp.csr_array, work: _parallel.Workers) -> None:
+    """``M.sort_indices()`` with ranges of rows sorted in threads (same kernel, same result)."""
+    n = M.shape[0]
+    if _sparsetools is None or work.threads < 2 or M.nnz < THREADED_NNZ or M.has_sorted_indices:
+        M.sort_indices()
+        return
+    indptr, indices, data = M.indptr, M.indices, M.data
+
+    def rows(lo: int, hi: int) -> None:
+        _sparsetools.csr_sort_indices(hi - lo, indptr[lo : hi + 1], indices, data)
+
+    try:
+        rows(0, min(n, 1))  # a call the kernel refuses raises here, before any thread runs
+    except (TypeError, ValueError, AttributeError):  # pragma: no cover - scipy changed its private API
+        M.sort_indices()
+        return
+    work.map(rows, n)
+    M.has_sorted_indices = True

@@ -742,6 +742,6 @@ def _assemble(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, ie: n
 
     max_coef = max([max_coef] + work.map(flip_rows, ie.size))
     M = sp.csr_array((data, indices, indptr), shape=(npts, n_free))
-    M.sort_indices()
+    _sparse.sort_indices(M, work)
     M.eliminate_zeros()
     return M, max_coef

@@ -216,16 +216,17 @@ def _space_arrays(space) -> dict:
 @given(triangulations(), st.integers(1, 50))
 def test_threaded_build_equals_the_inline_build_bit_for_bit(case, chunk):
     """Large meshes build M on ranges of edges in threads; the ranges must not change a bit."""
-    from trispline.spline import _parallel, propagation
+    from trispline.spline import _parallel, _sparse, propagation
 
     kind, uv, faces = case
     inline = _space_arrays(build_space(uv, faces))
-    saved = _parallel.PARALLEL_MIN, _parallel.CHUNK, propagation.SYSTEM_BATCH
+    saved = _parallel.PARALLEL_MIN, _parallel.CHUNK, propagation.SYSTEM_BATCH, _sparse.THREADED_NNZ
     try:  # force threads, many small ranges and batches of eliminated vertex systems
         _parallel.PARALLEL_MIN, _parallel.CHUNK, propagation.SYSTEM_BATCH = 1, chunk, 1 + chunk % 4
+        _sparse.THREADED_NNZ = 0
         threaded = _space_arrays(build_space(uv, faces))
     finally:
-        _parallel.PARALLEL_MIN, _parallel.CHUNK, propagation.SYSTEM_BATCH = saved
+        _parallel.PARALLEL_MIN, _parallel.CHUNK, propagation.SYSTEM_BATCH, _sparse.THREADED_NNZ = saved
     for name, value in inline.items():
         assert threaded[name].dtype == value.dtype, name
         np.testing.assert_array_equal(threaded[name], value, err_msg=f"{kind}: {name}")

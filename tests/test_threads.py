@@ -52,3 +52,23 @@ def test_threaded_matmul_is_bit_identical_to_scipy(monkeypatch, d):
     assert got.shape == expected.shape
     np.testing.assert_array_equal(got, expected)
     np.testing.assert_array_equal(_sparse.matmul(M, x[:, 0]), M @ x[:, 0])  # 1-D: scipy's own path
+
+
+def test_threaded_sort_indices_equals_scipy(monkeypatch):
+    rng = np.random.default_rng(5)
+    n, per_row = 300, 6
+    indptr = np.arange(0, n * per_row + 1, per_row, dtype=np.int32)
+    indices = np.concatenate([rng.permutation(40)[:per_row] for _ in range(n)]).astype(np.int32)
+    data = rng.normal(size=indices.size)
+    expected = sp.csr_array((data.copy(), indices.copy(), indptr.copy()), shape=(n, 40))
+    expected.sort_indices()
+    monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1)
+    monkeypatch.setattr(_parallel, "CHUNK", 13)
+    monkeypatch.setattr(_sparse, "THREADED_NNZ", 0)
+    M = sp.csr_array((data, indices, indptr), shape=(n, 40))
+    assert not M.has_sorted_indices
+    with _parallel.Workers(n) as work:
+        _sparse.sort_indices(M, work)
+    assert M.has_sorted_indices
+    np.testing.assert_array_equal(M.indices, expected.indices)
+    np.testing.assert_array_equal(M.data, expected.data)
