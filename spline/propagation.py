@@ -276,7 +276,8 @@ def _eliminate(A: np.ndarray, K: np.ndarray, weight: np.ndarray, tol: float):
         active &= raw_max > tol
         if not active.any():
             break
-        flat = np.argmax((mag * weight).reshape(nb, -1), axis=1)
+        mag *= weight
+        flat = np.argmax(mag.reshape(nb, -1), axis=1)
         r, col = np.divmod(flat, c)
         b = bidx[active]
         r, col = r[active], col[active]
@@ -424,10 +425,11 @@ def _vertex_systems(work: _parallel.Workers, tri: Triangulation, lay: NetLayout,
     vpos = np.full(nv, -1, np.int64)
     vpos[verts] = np.arange(verts.size)
     cb = np.flatnonzero(bad_v[corner_v])  # corners at flagged vertices, in corner order
-    c_order, c_pos, c_rank_sorted = _group_ranks(vpos[corner_v[cb]])
+    corner_job = work.submit(_group_ranks, vpos[corner_v[cb]])  # the two sorts run concurrently
+    e_order, eq_pos, eq_rank = _group_ranks(vpos[eq_s])
+    c_order, c_pos, c_rank_sorted = corner_job.result()
     corner_rank = np.full(corner_v.size, -1, np.int32)  # rank of a corner among its vertex's corners
     corner_rank[cb[c_order]] = c_rank_sorted
-    e_order, eq_pos, eq_rank = _group_ranks(vpos[eq_s])
     e = e_order
     kp = np.where(at_b[e], (k0[e] + 2) % 3, (k0[e] + 1) % 3)
     kq = np.where(at_b[e], (k1[e] + 1) % 3, (k1[e] + 2) % 3)
