@@ -549,7 +549,7 @@ def build_space(
             return lo + np.flatnonzero(~fast_a), lo + np.flatnonzero(~fast_b)
 
         slow_eqs = work.map(classify, n_ie)
-        tick("fast_path")
+        tick("classify")
         elim = _vertex_systems(work, tri, lay, ie, c2, frame_scale, bad_v,
                                tuple(_parallel.concat([s[j] for s in slow_eqs]) for j in range(2)),
                                singular_tol, inner_weight)
@@ -565,19 +565,17 @@ def build_space(
         is_free[lay.mid(be, 1)] = True
         is_free[lay.flip(bf, bk)] = True
         free_pts = np.flatnonzero(is_free)
-        del is_free
         n_free = 3 * nv + free_pts.size
         free_of_point = _memory.full(npts, -1, _memory.index_dtype(npts, n_free))
         free_of_point[:nv] = np.arange(nv)
         free_of_point[free_pts] = np.arange(3 * nv, n_free)
-        tick("flips")
+        tick("free_points")
 
         M, max_coef = _assemble(work, tri, lay, ie, c2, bad_v, frame_scale, free_pts, free_of_point,
                                 n_free, length, elim)
         max_coef = max(max_coef, elim.max_coef)
-        tick("compose")
+        tick("write_M")
         pidx = pidx_job.result()
-    del c2
     free_kind = np.empty(n_free, np.int8)
     free_kind[:nv] = KIND_CORNER
     free_kind[nv : 3 * nv] = KIND_FRAME
@@ -586,7 +584,7 @@ def build_space(
     free_point = np.concatenate([np.arange(nv), np.full(2 * nv, -1, np.int64), free_pts])
     frame_free = nv + 2 * np.arange(nv)[:, None] + np.arange(2)[None, :]
     sing = np.sort(np.concatenate(elim.singular)) if elim.singular else np.zeros(0, np.int64)
-    tick("point_index")
+    tick("finish")
     return SplineSpace(
         tri=tri,
         layout=lay,
@@ -617,7 +615,7 @@ def _assemble(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, ie: n
     already written. No COO sort, no sparse products.
     ``length``: (n_points,) int32 with the fast-path middle rows already set to 5.
     """
-    nv, npts, edges, UV, F = tri.n_vertices, lay.n_points, tri.edges, tri.uv, tri.faces
+    nv, npts, edges, UV = tri.n_vertices, lay.n_points, tri.edges, tri.uv
     col_t = free_of_point.dtype
 
     # rows of eliminated vertex systems: free inner/middle points, then z_s and the frame
