@@ -51,11 +51,8 @@ def matmul(M: sp.csr_array, x: np.ndarray) -> np.ndarray:
             out_flat[lo * d : hi * d] = 0.0
             _sparsetools.csr_matvecs(hi - lo, n, d, indptr[lo : hi + 1], indices, data, xs, out_flat[lo * d : hi * d])
 
-        try:
-            rows(0, min(m, 1))  # a call the kernel refuses raises here, before any thread runs
-        except (TypeError, ValueError, AttributeError):  # pragma: no cover - scipy changed its private API
+        if not _over_rows(work, m, rows):  # pragma: no cover - scipy changed its private API
             return M @ x
-        work.map(rows, m)
     return out
 
 
@@ -70,10 +67,22 @@ def sort_indices(M: sp.csr_array, work: _parallel.Workers) -> None:
     def rows(lo: int, hi: int) -> None:
         _sparsetools.csr_sort_indices(hi - lo, indptr[lo : hi + 1], indices, data)
 
-    try:
-        rows(0, min(n, 1))  # a call the kernel refuses raises here, before any thread runs
-    except (TypeError, ValueError, AttributeError):  # pragma: no cover - scipy changed its private API
+    if _over_rows(work, n, rows):
+        M.has_sorted_indices = True
+    else:  # pragma: no cover - scipy changed its private API
         M.sort_indices()
-        return
+
+
+def _over_rows(work: _parallel.Workers, n: int, rows) -> bool:
+    """Run ``rows(lo, hi)`` (a scipy kernel on a row range, idempotent) over all ``n`` rows.
+
+    The first row runs alone first: a kernel that refuses the call (a scipy release that
+    changed its private API) raises there, before any thread runs, and ``False`` says
+    to use the public method instead.
+    """
+    try:
+        rows(0, min(n, 1))
+    except (TypeError, ValueError, AttributeError):  # pragma: no cover - depends on scipy
+        return False
     work.map(rows, n)
-    M.has_sorted_indices = True
+    return True

@@ -31,6 +31,7 @@ def test_workers_map_returns_in_order_and_raises(monkeypatch):
 
 @pytest.mark.parametrize("value, dtype", [(0, np.float64), (-1, np.int32), (True, bool), (2.5, np.float32)])
 def test_full_fills_large_and_small_arrays(monkeypatch, value, dtype):
+    monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1)
     for nbytes_limit in (_memory.PREFAULT_BYTES, 1):  # small path, then the threaded fill
         monkeypatch.setattr(_memory, "PREFAULT_BYTES", nbytes_limit)
         a = _memory.full((37, 5), value, dtype)
