@@ -207,6 +207,19 @@ def _diamond_ids(tri: Triangulation, e: np.ndarray) -> tuple[np.ndarray, ...]:
     return ab[:, 0], ab[:, 1], ef[:, 0], ef[:, 1], eo[:, 0], eo[:, 1]
 
 
+def _flip_pair(lay: NetLayout, f0: np.ndarray, k0: np.ndarray, f1: np.ndarray, k1: np.ndarray,
+               c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The two flips of interior edges: ``(computed, free, q_side_computed)``.
+
+    Of the flips ``f(p ...)`` (face ``f0``) and ``f(q ...)`` (face ``f1``) of a diamond with
+    coefficients ``c: (n, 4)`` of ``(q, p, r, s)``, the one with the larger coefficient is
+    computed (no division by a small number); the other is free.
+    """
+    q_dep = np.abs(c[:, 0]) >= np.abs(c[:, 1])
+    flip_p, flip_q = lay.flip(f0, k0), lay.flip(f1, k1)
+    return np.where(q_dep, flip_q, flip_p), np.where(q_dep, flip_p, flip_q), q_dep
+
+
 def _star_rows(edges: np.ndarray, UV: np.ndarray, frame_scale: np.ndarray, nv: int,
                k: np.ndarray, col_dtype: type) -> tuple[np.ndarray, np.ndarray]:
     """Rows of star points ``k = 2 e + end``: affine in their vertex's frame.
@@ -543,9 +556,7 @@ def build_space(
             fast_a, fast_b = ~bad_v[a], ~bad_v[b]
             length[lay.mid(e[fast_a], 0)] = 5  # two inner points and the star
             length[lay.mid(e[fast_b], 1)] = 5
-            c = c2[lo:hi]
-            q_dep = np.abs(c[:, 0]) >= np.abs(c[:, 1])  # the flip with the larger coefficient is computed
-            is_free[np.where(q_dep, lay.flip(f0, k0), lay.flip(f1, k1))] = True
+            is_free[_flip_pair(lay, f0, k0, f1, k1, c2[lo:hi])[1]] = True
             return lo + np.flatnonzero(~fast_a), lo + np.flatnonzero(~fast_b)
 
         slow_eqs = work.map(classify, n_ie)
@@ -634,13 +645,11 @@ def _assemble(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, ie: n
     length[lay.star0 : lay.mid0] = 3
 
     def flip_ids(lo: int, hi: int) -> tuple[np.ndarray, ...]:
-        """Computed flip, free flip and the diamond's coefficients for interior edges lo:hi."""
+        """Edges lo:hi, their computed and free flips, which side is computed, the diamonds."""
         e = ie[lo:hi]
         _, _, f0, f1, k0, k1 = _diamond_ids(tri, e)
         c = c2[lo:hi]
-        q_dep = np.abs(c[:, 0]) >= np.abs(c[:, 1])
-        flip_p, flip_q = lay.flip(f0, k0), lay.flip(f1, k1)
-        return e, np.where(q_dep, flip_q, flip_p), np.where(q_dep, flip_p, flip_q), q_dep, c
+        return (e, *_flip_pair(lay, f0, k0, f1, k1, c), c)
 
     def flip_lengths(lo: int, hi: int) -> None:
         e, dep, _, _, _ = flip_ids(lo, hi)
