@@ -262,27 +262,37 @@ class _Eliminated:
     singular: list = field(default_factory=list)
     max_coef: float = 0.0
     n_systems: int = 0
-def _eliminate(A: np.ndarray, K: np.ndarray, weight: np.ndarray, tol: float):
-    """Batched Gauss--Jordan with weighted complete pivoting, in place.
+def _eliminate(A: np.ndarray, K: np.ndarray, weight: np.ndarray, tol: float, search: np.ndarray) -> np.ndarray:
+    """Batched Gauss--Jordan with weighted complete pivoting over the ``search`` rows, in place.
+
+    Rows outside ``search`` pivot on their own middle point, column ``c - m + row``: a
+    middle point lives in its own equation only, so those pivots never change another
+    row and need no elimination step; the search rows (the equations whose middle-point
+    coefficient is weak) are reduced among themselves, and their pivot columns are
+    eliminated from every row. The result is the reduced row echelon form for that
+    pivot set.
 
     Parameters
     ----------
     A : (B, m, c) coefficients of the unknowns; K : (B, m, m) of the known points.
     weight : (c,) pivot preference per column.
+    search : (B, m) bool, the rows whose pivot is searched; every system has the same
+        number of them.
 
     Returns
     -------
-    piv_col : (B, m) pivot column of each row, -1 for rows left without a pivot
+    piv_col : (B, m) pivot column of each row, -1 for search rows left without a pivot
         (linearly dependent on the others).
     """
     nb, m, c = A.shape
     piv_col = np.full((nb, m), -1, np.int64)
-    row_done = np.zeros((nb, m), bool)
+    row_done = ~search
     active = np.ones(nb, bool)
     bidx = np.arange(nb)
-    for _ in range(m):
-        # available entries: rows not yet pivoted. A pivot's column is exactly zero in every
-        # other row after its elimination step, so used columns need no mask of their own.
+    n_search = int(search.sum(1).max(initial=0))
+    for _ in range(n_search):
+        # available entries: search rows not yet pivoted. A pivot's column is exactly zero in
+        # every other row after its elimination step, so used columns need no mask of their own.
         mag = np.abs(A)
         mag[row_done] = 0.0
         raw_max = mag.reshape(nb, -1).max(axis=1)
@@ -309,63 +319,72 @@ def _eliminate(A: np.ndarray, K: np.ndarray, weight: np.ndarray, tol: float):
         A[b, r, col] = 1.0
         row_done[b, r] = True
         piv_col[b, r] = col
+    # the other rows: their own middle point (its coefficient passed the pivot test)
+    rows = np.arange(m)
+    own = np.where(search, 1.0, A[:, rows, c - m + rows])  # (B, m): dividing by 1 changes nothing
+    A /= own[:, :, None]
+    K /= own[:, :, None]
+    np.copyto(piv_col, c - m + rows, where=~search)
     return piv_col
-
-
 
 
 @dataclass(frozen=True)
 class _Systems:
-    """The flagged vertices' ``i = 1`` systems, grouped by shape, ready to eliminate in batches.
+    """The flagged vertices' ``i = 1`` systems, read off the vertex fans, eliminated in batches.
 
-    ``verts``: flagged vertices grouped by shape (corner count, equation count),
-    increasing inside a group; equations (``eq_*``, sorted by their vertex's position
-    in ``verts``) and corners (``c_*``, likewise) are found by binary search.
+    The system of vertex ``s`` has one unknown inner point per corner of its fan (in
+    counter-clockwise order) and one equation per interior edge at ``s``: the edge
+    between fan corners ``j`` and ``j + 1`` couples their two inner points with its
+    middle point and its star. ``verts``: flagged vertices grouped by shape (corner
+    count, equation count, weak equation count), increasing inside a group.
     """
 
     tri: Triangulation
     lay: NetLayout
+    c2: np.ndarray  # (n_ie, 4) diamond coefficients of (q, p, r, s), by position in ie
+    ie_pos: np.ndarray  # (E,) position of an interior edge in ie
     frame_scale: np.ndarray
     verts: np.ndarray  # (n,) flagged vertices
     n_c: np.ndarray  # (V,) corners per vertex
     n_e: np.ndarray  # (V,) interior edges (= equations) per vertex
-    eq_pos: np.ndarray  # (neq,) position of the equation's vertex in verts, sorted
-    eq_rank: np.ndarray  # (neq,) rank of the equation among its vertex's equations
-    eq_mid: np.ndarray  # (neq,) middle point id (the unknown the paper solves for)
-    eq_star: np.ndarray  # (neq,) star point id
-    eq_col: np.ndarray  # (neq, 2) ranks of the inner points (q side, p side) among the vertex's corners
-    eq_coef: np.ndarray  # (neq, 4) coefficients of (inner_q, inner_p, mid, star)
-    c_pos: np.ndarray  # (nco,) position of the corner's vertex in verts, sorted
-    c_rank: np.ndarray  # (nco,) rank of the corner among its vertex's corners
-    c_inner: np.ndarray  # (nco,) inner point id of the corner
     singular_tol: float
     inner_weight: float
 
     def batch(self, p0: int, p1: int) -> tuple:
         """Eliminate the systems of the vertices ``verts[p0:p1]`` (all of one shape)."""
-        lay, nv = self.lay, self.tri.n_vertices
+        tri, lay = self.tri, self.lay
         verts = self.verts[p0:p1]
         nc, m, nb = int(self.n_c[verts[0]]), int(self.n_e[verts[0]]), verts.size
-        e0, e1 = np.searchsorted(self.eq_pos, [p0, p1])
-        c0, c1 = np.searchsorted(self.c_pos, [p0, p1])
-        # global ids of the unknowns: inner points (by corner rank) then mids (by eq rank)
+        corners = tri.fan_corners[tri.fan_ptr[verts][:, None] + np.arange(nc)]  # (nb, nc)
+        f, k = np.divmod(corners[:, :m], 3)
+        e = tri.face_edges[f, (k + 1) % 3]  # (nb, m): the edge from s shared by corners j and j+1
+        end = (tri.edges[e, 1] == verts[:, None]).astype(np.int64)  # s = b: end 1
+        c = self.c2[self.ie_pos[e]]  # (nb, m, 4): (q, p, r, s)
+        # at end 1 (s = b) the middle point is the r column and the star the s column; at end 0
+        # the other way. Corner j's face is the diamond's p side (f0) or its q side (f1).
+        on_p = tri.edge_faces[e, 0] == f
+        j = np.arange(m)
+        j1 = (j + 1) % nc
+        col_p = np.where(on_p, j, j1)
+        col_q = np.where(on_p, j1, j)
+        c_mid = np.where(end == 1, c[..., 2], c[..., 3])
+        c_star = np.where(end == 1, c[..., 3], c[..., 2])
+        cm = np.abs(c_mid)  # the test of the diamonds stage: only weak rows need a pivot search
+        weak = ~((cm >= self.inner_weight * np.maximum(np.abs(c[..., 0]), np.abs(c[..., 1])))
+                 & (cm > self.singular_tol))
+        # global ids of the unknowns: inner points (by fan position) then middle points (by row)
         col_pid = np.empty((nb, nc + m), np.int64)
-        col_pid[self.c_pos[c0:c1] - p0, self.c_rank[c0:c1]] = self.c_inner[c0:c1]
-        bi, ri = self.eq_pos[e0:e1] - p0, self.eq_rank[e0:e1]
-        col_pid[bi, nc + ri] = self.eq_mid[e0:e1]
-        star_pid = np.empty((nb, m), np.int64)
-        star_pid[bi, ri] = self.eq_star[e0:e1]
-        coef, col = self.eq_coef[e0:e1], self.eq_col[e0:e1]
+        col_pid[:, :nc] = lay.inner0 + corners
+        col_pid[:, nc:] = lay.mid(e, end)
         A = np.zeros((nb, m, nc + m))
         K = np.zeros((nb, m, m))
-        # every (system, row, column) is set once: an equation's two inner points are
-        # corners of different faces
-        A[bi, ri, col[:, 0]] = coef[:, 0]
-        A[bi, ri, col[:, 1]] = coef[:, 1]
-        A[bi, ri, nc + ri] = coef[:, 2]
-        K[bi, ri, ri] = coef[:, 3]
+        bi = np.arange(nb)[:, None]
+        A[bi, j, col_q] = c[..., 0]  # the two inner points are different corners: set once each
+        A[bi, j, col_p] = c[..., 1]
+        A[bi, j, nc + j] = c_mid
+        K[:, j, j] = c_star
         weight = np.concatenate([np.full(nc, self.inner_weight), np.ones(m)])
-        piv = _eliminate(A, K, weight, self.singular_tol)
+        piv = _eliminate(A, K, weight, self.singular_tol, weak)
         lost = (piv < 0).sum(1)  # singular vertices: rows without pivot
         singular = np.repeat(verts[lost > 0], lost[lost > 0])
         is_piv_col = np.zeros((nb, nc + m), bool)
@@ -377,87 +396,51 @@ class _Systems:
         Ar = A[pb, pr]  # (npiv, c)
         Ar[is_piv_col[pb]] = 0.0
         ja, ca = np.nonzero(Ar)
-        Kr = K[pb, pr]  # (npiv, m)
-        sv, _ = _star_rows(self.tri.edges, self.tri.uv, self.frame_scale, nv,
-                           (star_pid - lay.star0).reshape(-1), np.int64)
-        sv = sv.reshape(nb, m, 3)[pb]
-        frame = -Kr[:, 0, None] * sv[:, 0]
-        for k in range(1, m):  # a fixed summation order: batching cannot change a bit
-            frame -= Kr[:, k, None] * sv[:, k]
+        # the stars' frame weights (as in _star_rows): (1 - x - y, x, y), (x, y) = (w - s) / d_s
+        w = np.where(end == 1, tri.edges[e, 0], tri.edges[e, 1])  # (nb, m) far ends of the edges
+        sv = np.empty((nb, m, 3))
+        np.subtract(tri.uv[w], tri.uv[verts][:, None, :], out=sv[..., 1:])
+        sv[..., 1:] /= self.frame_scale[verts][:, None, None]
+        np.subtract(1.0, sv[..., 1], out=sv[..., 0])
+        sv[..., 0] -= sv[..., 2]
+        frame = -K[:, :, 0, None] * sv[:, None, 0]  # (nb, m, 3)
+        for i in range(1, m):  # a fixed summation order: batching cannot change a bit
+            frame -= K[:, :, i, None] * sv[:, None, i]
+        Kr = K if pb.size == K.shape[0] * m else K[pb, pr]  # the rows with a pivot
         big = max(float(np.abs(Ar).max()), float(np.abs(Kr).max())) if Ar.size else 0.0
         return (singular, col_pid[~is_piv_col], dep, np.bincount(ja, minlength=pb.size),
-                col_pid[pb[ja], ca], -Ar[ja, ca], frame, verts[pb], big)
-
-
-def _group_ranks(pos: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Stable order by ``pos``, the sorted ``pos``, and each element's rank inside its group."""
-    order = np.argsort(pos, kind="stable")
-    sorted_pos = pos[order]
-    n = sorted_pos.size
-    first = np.zeros(n, np.int64)
-    if n:
-        new = np.flatnonzero(sorted_pos[1:] != sorted_pos[:-1]) + 1
-        first[new] = new
-        np.maximum.accumulate(first, out=first)
-    return order, sorted_pos, np.arange(n) - first
+                col_pid[pb[ja], ca], -Ar[ja, ca], frame[pb, pr], verts[pb], big)
 
 
 def _vertex_systems(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, ie: np.ndarray, c2: np.ndarray,
-                    frame_scale: np.ndarray, bad_v: np.ndarray, eq_sel: tuple[np.ndarray, np.ndarray], singular_tol: float,
+                    frame_scale: np.ndarray, n_weak: np.ndarray, singular_tol: float,
                     inner_weight: float) -> _Eliminated:
-    """Reduce the ``i = 1`` systems of the vertices flagged in ``bad_v``.
+    """Reduce the ``i = 1`` systems of the vertices with weak equations (``n_weak: (V,)`` > 0).
 
-    Systems of one shape (corner count, equation count) are eliminated together,
-    in batches of at most ``SYSTEM_BATCH`` vertices (small temporaries; batches
-    run in threads). ``eq_sel``: positions in ``ie`` of the equations at end 0 and
-    at end 1 whose vertex is flagged. Equations are ranked inside their vertex
-    end-0 first, each in ``ie`` order; corners in corner order.
+    Systems of one shape (corner count, equation count, weak equation count) are
+    eliminated together, in batches of at most ``SYSTEM_BATCH`` vertices (small
+    temporaries; batches run in threads). Each system is gathered from its vertex's
+    fan: no global sort of equations or corners.
     """
-    out = _Eliminated(n_systems=int(bad_v.sum()))
+    verts = np.flatnonzero(n_weak)
+    out = _Eliminated(n_systems=int(verts.size))
     if out.n_systems == 0:
         return out
-    F, nv = tri.faces, tri.n_vertices
-    i0, i1 = eq_sel
-    ii = np.concatenate([i0, i1])
-    at_b = np.concatenate([np.zeros(i0.size, bool), np.ones(i1.size, bool)])
-    eq_e = ie[ii]
-    a, b, f0, f1, k0, k1 = _diamond_ids(tri, eq_e)
-    eq_s = np.where(at_b, b, a)
-    # equation coefficients of (inner_q, inner_p, mid, star): at end 0 (r = b, s = a) the
-    # diamond's r and s coefficients swap
-    coef = c2[ii]
-    coef[~at_b] = coef[~at_b][:, [0, 1, 3, 2]]
-    corner_v = F.ravel()
-    n_c = np.bincount(corner_v, minlength=nv)
-    n_e = np.bincount(tri.edges[ie].ravel(), minlength=nv)
+    n_c = np.diff(tri.fan_ptr)
+    n_e = n_c - tri.boundary_vertex_mask
     # flagged vertices grouped by system shape, increasing inside a group
-    shape_key = n_c * (n_e.max(initial=0) + 1) + n_e
-    verts = np.flatnonzero(bad_v)
-    verts = verts[np.argsort(shape_key[verts], kind="stable")]
-    _, g_first, g_count = np.unique(shape_key[verts], return_index=True, return_counts=True)
-    vpos = np.full(nv, -1, np.int64)
-    vpos[verts] = np.arange(verts.size)
-    cb = np.flatnonzero(bad_v[corner_v])  # corners at flagged vertices, in corner order
-    corner_job = work.submit(_group_ranks, vpos[corner_v[cb]])  # the two sorts run concurrently
-    e_order, eq_pos, eq_rank = _group_ranks(vpos[eq_s])
-    c_order, c_pos, c_rank_sorted = corner_job.result()
-    corner_rank = np.full(corner_v.size, -1, np.int32)  # rank of a corner among its vertex's corners
-    corner_rank[cb[c_order]] = c_rank_sorted
-    e = e_order
-    kp = np.where(at_b[e], (k0[e] + 2) % 3, (k0[e] + 1) % 3)
-    kq = np.where(at_b[e], (k1[e] + 1) % 3, (k1[e] + 2) % 3)
-    end = at_b[e].astype(np.int64)
-    systems = _Systems(
-        tri=tri, lay=lay, frame_scale=frame_scale, verts=verts, n_c=n_c, n_e=n_e,
-        eq_pos=eq_pos, eq_rank=eq_rank, eq_mid=lay.mid(eq_e[e], end), eq_star=lay.star(eq_e[e], end),
-        eq_col=np.column_stack([corner_rank[3 * f1[e] + kq], corner_rank[3 * f0[e] + kp]]),
-        eq_coef=coef[e], c_pos=c_pos, c_rank=c_rank_sorted, c_inner=lay.inner0 + cb[c_order],
-        singular_tol=singular_tol, inner_weight=inner_weight,
-    )
+    big = int(n_c.max(initial=0)) + 1
+    shape_key = (n_c[verts] * big + n_e[verts]) * big + n_weak[verts]
+    order = np.argsort(shape_key, kind="stable")
+    verts = verts[order]
+    _, g_first, g_count = np.unique(shape_key[order], return_index=True, return_counts=True)
+    ie_pos = np.cumsum(~tri.boundary_edge_mask, dtype=_memory.index_dtype(ie.size)) - 1
+    systems = _Systems(tri=tri, lay=lay, c2=c2, ie_pos=ie_pos, frame_scale=frame_scale, verts=verts, n_c=n_c, n_e=n_e,
+                       singular_tol=singular_tol, inner_weight=inner_weight)
     futures = [work.submit(systems.batch, int(g0 + lo), int(g0 + hi))
                for g0, gn in zip(g_first, g_count) for lo, hi in _parallel.ranges(int(gn), SYSTEM_BATCH)]
     for fut in futures:  # in group and position order: the output does not depend on the batching
-        singular, free, dep, n_a, a_cols, a_vals, frame, vertex, big = fut.result()
+        singular, free, dep, n_a, a_cols, a_vals, frame, vertex, big_coef = fut.result()
         if singular.size:
             out.singular.append(singular)
         out.free.append(free)
@@ -467,7 +450,7 @@ def _vertex_systems(work: _parallel.Workers, tri: Triangulation, lay: NetLayout,
         out.a_vals.append(a_vals)
         out.frame.append(frame)
         out.vertex.append(vertex)
-        out.max_coef = max(out.max_coef, big)
+        out.max_coef = max(out.max_coef, big_coef)
     return out
 
 
@@ -542,28 +525,25 @@ def build_space(
                 bad.append(s[~((cm >= lim) & (cm > singular_tol))])
             return np.concatenate(bad)
 
-        bad_v = np.zeros(nv, bool)
-        bad_v[_parallel.concat(work.map(diamonds, n_ie))] = True
+        n_weak = np.bincount(_parallel.concat(work.map(diamonds, n_ie)), minlength=nv)  # weak equations per vertex
+        bad_v = n_weak > 0
         tick("diamonds")
 
         # ---- which points are free, and the row length of every point in M
         is_free = _memory.full(npts, False, bool)  # besides the corners (free ids 0..V-1)
         length = _memory.full(npts, 0, np.int32)  # a row holds at most 1 + 2 * (longest middle row) entries
 
-        def classify(lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
+        def classify(lo: int, hi: int) -> None:
             e = ie[lo:hi]
             a, b, f0, f1, k0, k1 = _diamond_ids(tri, e)
             fast_a, fast_b = ~bad_v[a], ~bad_v[b]
             length[lay.mid(e[fast_a], 0)] = 5  # two inner points and the star
             length[lay.mid(e[fast_b], 1)] = 5
             is_free[_flip_pair(lay, f0, k0, f1, k1, c2[lo:hi])[1]] = True
-            return lo + np.flatnonzero(~fast_a), lo + np.flatnonzero(~fast_b)
 
-        slow_eqs = work.map(classify, n_ie)
+        work.map(classify, n_ie)
         tick("classify")
-        elim = _vertex_systems(work, tri, lay, ie, c2, frame_scale, bad_v,
-                               tuple(_parallel.concat([s[j] for s in slow_eqs]) for j in range(2)),
-                               singular_tol, inner_weight)
+        elim = _vertex_systems(work, tri, lay, ie, c2, frame_scale, n_weak, singular_tol, inner_weight)
         tick("elimination")
         is_free[lay.inner0 : lay.flip0] = ~bad_v[F.ravel()]  # all inner points at fast-path vertices
         for pts in elim.free:
