@@ -241,12 +241,9 @@ class Triangulation:
         # vertices with no start are interior: start at their first corner
         has_start = np.zeros(nv, bool)
         has_start[v_of[starts]] = True
-        first = np.full(nv, -1, np.int64)
-        order = np.argsort(v_of, kind="stable")
-        vs = v_of[order]
-        firsts = order[np.r_[True, vs[1:] != vs[:-1]]]
-        first[v_of[firsts]] = firsts
-        interior_starts = first[~has_start & (first >= 0)]
+        first = np.full(nv, n3, np.int64)  # each vertex's lowest corner (no sort of all corners)
+        np.minimum.at(first, v_of, np.arange(n3))
+        interior_starts = first[~has_start & (first < n3)]
         all_starts = np.concatenate([starts, interior_starts])
         n_start_per_v = np.bincount(v_of[all_starts], minlength=nv)
         # walk every fan in lockstep, remembering each step's (fan, corner) pairs
@@ -276,7 +273,7 @@ class Triangulation:
             corners[fan_offset[ids] + step] = cs
         fan_count = n_start_per_v.copy()
         # a vertex whose walk does not reach all of its corners has several fans
-        reached = np.bincount(v_of[corners], minlength=nv)
+        reached = np.bincount(v_of[all_starts], weights=fan_len, minlength=nv).astype(np.int64)
         total = np.bincount(v_of, minlength=nv)
         fan_count[reached != total] = np.maximum(fan_count[reached != total], 2)
         ptr = np.zeros(nv + 1, np.int64)
