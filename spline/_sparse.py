@@ -25,35 +25,51 @@ except ImportError:  # pragma: no cover - depends on the scipy build
 THREADED_NNZ = 1 << 20
 
 
-def matmul(M: sp.csr_array, x: np.ndarray) -> np.ndarray:
-    """``M @ x`` for ``M: (m, n)`` CSR float64 and ``x: (n, d)``; returns ``(m, d)`` float64."""
+def kernel_ok(M: sp.csr_array, x: np.ndarray) -> bool:
+    """Whether scipy's private kernel can take ``M @ x`` (float64 CSR times float64 ``(n, d)``)."""
+    return (_sparsetools is not None and x.ndim == 2 and x.dtype == np.float64
+            and M.dtype == np.float64 and x.shape[0] == M.shape[1])
+
+
+def matmul(M: sp.csr_array, x: np.ndarray, rows: tuple[int, int] | None = None) -> np.ndarray:
+    """``M[lo:hi] @ x`` for ``M: (m, n)`` CSR float64 and ``x: (n, d)``; ``(hi - lo, d)`` float64.
+
+    ``rows=(lo, hi)`` selects a range of rows (all rows by default) without copying ``M``.
+    """
     x = np.asarray(x)
-    if (
-        _sparsetools is None
-        or x.ndim != 2
-        or x.dtype != np.float64
-        or M.dtype != np.float64
-        or M.nnz < THREADED_NNZ
-        or x.shape[0] != M.shape[1]
-    ):
-        return M @ x
-    with _parallel.Workers(M.shape[0]) as work:
+    lo, hi = rows if rows is not None else (0, M.shape[0])
+    if not kernel_ok(M, x) or M.indptr[hi] - M.indptr[lo] < THREADED_NNZ:
+        return M @ x if rows is None else M[lo:hi] @ x
+    with _parallel.Workers(hi - lo) as work:
         if work.threads < 2:
-            return M @ x
-        m, n = M.shape
+            return M @ x if rows is None else M[lo:hi] @ x
         d = x.shape[1]
         xs = np.ascontiguousarray(x).reshape(-1)
-        out = np.empty((m, d))  # every range zeroes (first-touches) its own rows; the kernel adds
-        out_flat = out.reshape(-1)
-        indptr, indices, data = M.indptr, M.indices, M.data
+        out = np.empty((hi - lo, d))  # every range zeroes (first-touches) its own rows; the kernel adds
 
-        def rows(lo: int, hi: int) -> None:
-            out_flat[lo * d : hi * d] = 0.0
-            _sparsetools.csr_matvecs(hi - lo, n, d, indptr[lo : hi + 1], indices, data, xs, out_flat[lo * d : hi * d])
+        def part(a: int, b: int) -> None:
+            rows_into(M, xs, lo + a, lo + b, out[a:b])
 
-        if not _over_rows(work, m, rows):  # pragma: no cover - scipy changed its private API
-            return M @ x
+        if not _over_rows(work, hi - lo, part):  # pragma: no cover - scipy changed its private API
+            return M @ x if rows is None else M[lo:hi] @ x
     return out
+
+
+def rows_into(M: sp.csr_array, xs: np.ndarray, lo: int, hi: int, out: np.ndarray) -> None:
+    """``out[:] = M[lo:hi] @ x`` on the calling thread; ``xs``: ``x: (n, d)`` C-contiguous, raveled.
+
+    ``out: (hi - lo, d)`` C-contiguous float64. scipy's kernel on a slice of ``indptr``
+    (no copy of ``M``; releases the GIL); raises ``TypeError``/``ValueError`` where that
+    private kernel refuses the call.
+    """
+    if _sparsetools is None:  # pragma: no cover - depends on the scipy build
+        raise TypeError("scipy's sparsetools kernels are not available")
+    if not out.flags.c_contiguous:
+        raise ValueError("rows_into needs a C-contiguous output")
+    d = out.shape[1]
+    flat = out.reshape(-1)
+    flat[:] = 0.0
+    _sparsetools.csr_matvecs(hi - lo, M.shape[1], d, M.indptr[lo : hi + 1], M.indices, M.data, xs, flat)
 
 
 def sort_indices(M: sp.csr_array, work: _parallel.Workers) -> None:

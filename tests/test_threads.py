@@ -55,6 +55,24 @@ def test_threaded_matmul_is_bit_identical_to_scipy(monkeypatch, d):
     np.testing.assert_array_equal(_sparse.matmul(M, x[:, 0]), M @ x[:, 0])  # 1-D: scipy's own path
 
 
+@pytest.mark.parametrize("threaded", [False, True])
+def test_row_range_products_equal_scipy_on_the_slice(monkeypatch, threaded):
+    rng = np.random.default_rng(7)
+    M = sp.csr_array(sp.random(400, 150, density=0.05, format="csr", random_state=rng))
+    x = rng.normal(size=(150, 3))
+    if threaded:
+        monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1)
+        monkeypatch.setattr(_parallel, "CHUNK", 11)
+        monkeypatch.setattr(_sparse, "THREADED_NNZ", 0)
+    for lo, hi in [(0, 400), (0, 1), (37, 230), (399, 400), (5, 5)]:
+        np.testing.assert_array_equal(_sparse.matmul(M, x, rows=(lo, hi)), M[lo:hi] @ x)
+        out = np.full((hi - lo, 3), np.nan)  # overwritten, not accumulated into
+        _sparse.rows_into(M, x.reshape(-1), lo, hi, out)
+        np.testing.assert_array_equal(out, M[lo:hi] @ x)
+    with pytest.raises(ValueError, match="contiguous"):
+        _sparse.rows_into(M, x.reshape(-1), 0, 4, np.empty((3, 4)).T)
+
+
 def test_threaded_sort_indices_equals_scipy(monkeypatch):
     rng = np.random.default_rng(5)
     n, per_row = 300, 6
