@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _gather
 from ._index import local_index
 from .propagation import diamond_coefficients
 from .topology import Triangulation
@@ -48,8 +49,9 @@ def c1_vectors(tri: Triangulation, ctrl: np.ndarray) -> np.ndarray:
     ie = tri.interior_edges
     f0, f1, kp, kr0, ks0, kq, kr1, ks1 = _edge_locals(tri, ie)
     F, UV = tri.faces, tri.uv
-    a, b = tri.edges[ie, 0], tri.edges[ie, 1]
-    coef = diamond_coefficients(UV[F[f0, kp]], UV[F[f1, kq]], UV[a], UV[b])
+    a, b = _gather.at(tri.edges, ie, 0), _gather.at(tri.edges, ie, 1)
+    p, q = _gather.at(F, f0, kp), _gather.at(F, f1, kq)
+    coef = diamond_coefficients(*(_gather.rows(UV, v) for v in (p, q, a, b)))
     xq = ctrl[f1[:, None], _XP[kr1, ks1]]  # f_B(q r^i s^(4-i)): same label pattern with q in place of p
     xp = ctrl[f0[:, None], _XP[kr0, ks0]]
     xr = ctrl[f0[:, None], _XR[kr0, ks0]]

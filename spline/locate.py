@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import _gather
 from .errors import InputError, first_few
 from .topology import signed_areas
 
@@ -48,7 +49,7 @@ class Locator:
             raise InputError(f"faces must have shape (F, 3) with F > 0, got {faces.shape}")
         object.__setattr__(self, "uv", uv)
         object.__setattr__(self, "faces", faces)
-        tri = uv[faces]  # (F, 3, 2)
+        tri = _gather.rows(uv, faces)  # (F, 3, 2)
         lo, hi = tri.min(1), tri.max(1)
         blo, bhi = lo.min(0), hi.max(0)
         ext = np.maximum(bhi - blo, 1e-300)
@@ -80,7 +81,7 @@ class Locator:
 
     def bary_in(self, face_idx: np.ndarray, points: np.ndarray) -> np.ndarray:
         """Barycentric coordinates ``(n, 3)`` of ``points (n, 2)`` in faces ``face_idx (n,)``."""
-        t = self.uv[self.faces[face_idx]]  # (n, 3, 2)
+        t = _gather.rows(self.uv, _gather.rows(self.faces, face_idx))  # (n, 3, 2)
         p = points[:, None, :]
         a = t[:, [1, 2, 0]] - p  # vertex k+1 relative to p
         b = t[:, [2, 0, 1]] - p
@@ -127,7 +128,7 @@ class Locator:
         pair_q = np.repeat(np.arange(q.size), cnt)
         off = np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
         cand = self._cand[np.repeat(start, cnt) + off]
-        b = self.bary_in(cand, pts[q[pair_q]])
+        b = self.bary_in(cand, _gather.rows(pts, q[pair_q]))
         score = b.min(1)
         seg = np.cumsum(cnt) - cnt
         best = np.maximum.reduceat(score, seg)

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import _gather
 from ._index import NCTRL
 from .bernstein import basis, basis_gradient_bary, basis_hessian_bary
 from .errors import InputError, first_few
@@ -44,7 +45,7 @@ def face_bary_gradients(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """
     uv = np.asarray(uv, dtype=np.float64)
     faces = np.asarray(faces)
-    t = uv[faces]  # (F, 3, 2)
+    t = _gather.rows(uv, faces)  # (F, 3, 2)
     e = t[:, [2, 0, 1]] - t[:, [1, 2, 0]]  # edge opposite k, traversed CCW
     twice = 2.0 * signed_areas(uv, faces)
     return np.stack([-e[..., 1], e[..., 0]], axis=-1) / twice[:, None, None]
@@ -91,7 +92,7 @@ def evaluate(
     """
     ctrl = check_ctrl(faces, ctrl)
     face_idx, bary = _check_queries(ctrl.shape[0], face_idx, bary)
-    return np.einsum("nk,nkd->nd", basis(bary), ctrl[face_idx])
+    return np.einsum("nk,nkd->nd", basis(bary), _gather.rows(ctrl, face_idx))
 
 
 @dataclass(frozen=True)
@@ -133,7 +134,7 @@ def evaluate_derivatives(
     ctrl = check_ctrl(faces, ctrl)
     face_idx, bary = _check_queries(ctrl.shape[0], face_idx, bary)
     G = face_bary_gradients(uv, np.asarray(faces)[face_idx])  # (n, 3, 2)
-    c = ctrl[face_idx]  # (n, 21, d)
+    c = _gather.rows(ctrl, face_idx)  # (n, 21, d)
     values = np.einsum("nk,nkd->nd", basis(bary), c)
     dB = basis_gradient_bary(bary)  # (3, n, 21)
     Bu = np.einsum("mnk,nm->nk", dB, G[:, :, 0])
@@ -228,8 +229,8 @@ def numeric_continuity(
     ne = ie.size
     results = []
     for side in range(2):
-        f = tri.edge_faces[ie, side]
-        fv = tri.faces[f]  # (ne, 3)
+        f = _gather.at(tri.edge_faces, ie, side)
+        fv = _gather.rows(tri.faces, f)  # (ne, 3)
         la = np.argmax(fv == a[:, None], axis=1)
         lb = np.argmax(fv == b[:, None], axis=1)
         bary = np.zeros((ne, n_samples, 3))

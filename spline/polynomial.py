@@ -16,6 +16,7 @@ from typing import Callable
 import numpy as np
 import scipy.linalg
 
+from . import _gather
 from ._index import DEGREE
 from .bernstein import bary_grid, basis
 from .errors import InputError
@@ -54,7 +55,7 @@ def polynomial_control_net(
         raise InputError(f"faces must have shape (F, 3), got {faces.shape}")
     nf = faces.shape[0]
     grid = bary_grid(DEGREE)  # (21, 3)
-    pts = np.einsum("gk,fkc->fgc", grid, uv[faces])  # (F, 21, 2)
+    pts = np.einsum("gk,fkc->fgc", grid, _gather.rows(uv, faces))  # (F, 21, 2)
     vals = np.asarray(func(pts.reshape(-1, 2)), dtype=np.float64)
     if vals.ndim == 1:
         vals = vals[:, None]

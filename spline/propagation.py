@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from . import _memory, _parallel, _sparse
+from . import _gather, _memory, _parallel, _sparse
 from ._index import FLIP, INNER, NCTRL
 from .net import NetLayout, layout_of, point_index
 from .topology import Triangulation
@@ -215,7 +215,7 @@ class SplineSpace:
         v = np.concatenate(rows_v)
         w = np.concatenate(rows_w)
         pt = np.concatenate(rows_pt)
-        d = (t.uv[w] - t.uv[v]) / self.frame_scale[v, None]  # (2E, 2) = (alpha, beta)
+        d = (_gather.rows(t.uv, w) - _gather.rows(t.uv, v)) / self.frame_scale[v, None]  # (2E, 2): (alpha, beta)
         rhs = points[pt] - points[v]  # = alpha (p1 - z) + beta (p2 - z)
         nv = t.n_vertices
         G = np.zeros((nv, 2, 2))
@@ -235,7 +235,7 @@ def _diamond_ids(tri: Triangulation, e: np.ndarray) -> tuple[np.ndarray, ...]:
     ``k0 + 1, k0 + 2``; in ``f1`` they sit at ``k1 + 2, k1 + 1``. The diamond's
     outer vertices are ``p = F[f0, k0]`` and ``q = F[f1, k1]``.
     """
-    ab, ef, eo = tri.edges[e], tri.edge_faces[e], tri.edge_opposite[e]
+    ab, ef, eo = (_gather.rows(table, e) for table in (tri.edges, tri.edge_faces, tri.edge_opposite))
     return ab[:, 0], ab[:, 1], ef[:, 0], ef[:, 1], eo[:, 0], eo[:, 1]
 
 
@@ -259,7 +259,7 @@ def _star_weights(uv: np.ndarray, frame_scale: np.ndarray, s: np.ndarray, w: np.
     + y frame_s,y`` with ``(x, y) = (w - s) / d_s``; ``s, w`` are vertex ids of one shape.
     """
     out = np.empty(s.shape + (3,))
-    np.subtract(uv[w], uv[s], out=out[..., 1:])
+    np.subtract(_gather.rows(uv, w), _gather.rows(uv, s), out=out[..., 1:])
     out[..., 1:] /= frame_scale[s][..., None]
     np.subtract(1.0, out[..., 1], out=out[..., 0])
     out[..., 0] -= out[..., 2]
@@ -380,12 +380,12 @@ class _Systems:
         nc, m, nb = int(self.n_c[verts[0]]), int(self.n_e[verts[0]]), verts.size
         corners = tri.fan_corners[tri.fan_ptr[verts][:, None] + np.arange(nc)]  # (nb, nc)
         f, k = np.divmod(corners[:, :m], 3)
-        e = tri.face_edges[f, (k + 1) % 3]  # (nb, m): the edge from s shared by corners j and j+1
-        end = (tri.edges[e, 1] == verts[:, None]).astype(np.int64)  # s = b: end 1
-        c = self.c2[self.ie_pos[e]]  # (nb, m, 4): (q, p, r, s)
+        e = _gather.at(tri.face_edges, f, (k + 1) % 3)  # (nb, m): the edge from s shared by corners j and j+1
+        end = (_gather.at(tri.edges, e, 1) == verts[:, None]).astype(np.int64)  # s = b: end 1
+        c = _gather.rows(self.c2, self.ie_pos[e])  # (nb, m, 4): (q, p, r, s)
         # at end 1 (s = b) the middle point is the r column and the star the s column; at end 0
         # the other way. Corner j's face is the diamond's p side (f0) or its q side (f1).
-        on_p = tri.edge_faces[e, 0] == f
+        on_p = _gather.at(tri.edge_faces, e, 0) == f
         j = np.arange(m)
         j1 = (j + 1) % nc
         col_p = np.where(on_p, j, j1)
@@ -419,7 +419,7 @@ class _Systems:
         Ar = A[pb, pr]  # (npiv, c)
         Ar[is_piv_col[pb]] = 0.0
         ja, ca = np.nonzero(Ar)
-        w = np.where(end == 1, tri.edges[e, 0], tri.edges[e, 1])  # (nb, m) far ends of the edges
+        w = _gather.at(tri.edges, e, 1 - end)  # (nb, m) far ends of the edges
         sv = _star_weights(tri.uv, self.frame_scale, np.broadcast_to(verts[:, None], w.shape), w)
         frame = -K[:, :, 0, None] * sv[:, None, 0]  # (nb, m, 3)
         for i in range(1, m):  # a fixed summation order: batching cannot change a bit
@@ -518,7 +518,7 @@ def build_space(
         pidx_job = work.submit(point_index, tri)  # independent of everything below
 
         # ---- frame scale: mean incident edge length
-        elen = np.linalg.norm(UV[edges[:, 0]] - UV[edges[:, 1]], axis=1)
+        elen = np.linalg.norm(_gather.rows(UV, edges[:, 0]) - _gather.rows(UV, edges[:, 1]), axis=1)
         frame_scale = np.bincount(edges.ravel(), weights=np.repeat(elen, 2), minlength=nv) / np.bincount(
             edges.ravel(), minlength=nv
         )
@@ -534,7 +534,8 @@ def build_space(
 
         def diamonds(lo: int, hi: int) -> np.ndarray:
             a, b, f0, f1, k0, k1 = _diamond_ids(tri, ie[lo:hi])
-            c = diamond_coefficients(UV[F[f0, k0]], UV[F[f1, k1]], UV[a], UV[b])
+            p, q = _gather.at(F, f0, k0), _gather.at(F, f1, k1)
+            c = diamond_coefficients(*(_gather.rows(UV, v) for v in (p, q, a, b)))
             c2[lo:hi] = c
             lim = inner_weight * np.maximum(np.abs(c[:, 0]), np.abs(c[:, 1]))
             bad = []
@@ -696,7 +697,7 @@ def _assemble(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, ie: n
             ok = np.flatnonzero(~bad_v[s])
             if ok.size == 0:
                 continue
-            co = c[ok]
+            co = _gather.rows(c, ok)
             neg = -co[:, mid_col]
             w = [co[:, 0] / neg, co[:, 1] / neg, co[:, star_col] / neg]  # (inner_q, inner_p, star)
             big = max(big, *(float(np.abs(x).max()) for x in w))

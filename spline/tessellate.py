@@ -31,7 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import _memory
+from . import _gather, _memory
 from ._index import CORNER, NCTRL, STAR
 from .bernstein import basis, basis_gradient_bary
 from .errors import InputError
@@ -319,7 +319,7 @@ def tessellate(
             def interior_chunk(lo: int, hi: int) -> None:
                 _write_samples(vin[:, lo:hi], nin[:, lo:hi], rows_in, ctrl[lo:hi])
                 # uv of the samples: a matmul (an einsum here took 15x longer)
-                corner_uv = UV[F[lo:hi]].transpose(1, 0, 2).reshape(3, -1)
+                corner_uv = _gather.rows(UV, F[lo:hi]).transpose(1, 0, 2).reshape(3, -1)
                 uin[:, lo:hi] = (ib @ corner_uv).reshape(n_inner, hi - lo, 2)
 
             for lo, hi in work.task_chunks(nf):
@@ -335,8 +335,8 @@ def tessellate(
             bounds = np.searchsorted(k0[order], [0, 1, 2, 3])
 
             def edge_chunk(rows: np.ndarray, lo: int, hi: int) -> None:
-                _write_samples(vb[:, lo:hi], nb[:, lo:hi], rows, ctrl[f_sorted[lo:hi]])
-                a, b = UV[start_sorted[lo:hi]], UV[end_sorted[lo:hi]]
+                _write_samples(vb[:, lo:hi], nb[:, lo:hi], rows, _gather.rows(ctrl, f_sorted[lo:hi]))
+                a, b = _gather.rows(UV, start_sorted[lo:hi]), _gather.rows(UV, end_sorted[lo:hi])
                 ub[:, lo:hi] = (1.0 - t)[:, None, None] * a[None] + t[:, None, None] * b[None]
 
             for k in range(3):  # three relabelled sample sets, not a per-face loop

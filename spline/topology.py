@@ -21,7 +21,7 @@ from functools import cached_property
 
 import numpy as np
 
-from . import _parallel
+from . import _gather, _parallel
 from .errors import TriangulationError, first_few
 
 #: Faces whose uv area is below this fraction of the mean face area are rejected.
@@ -30,7 +30,7 @@ MIN_RELATIVE_AREA = 1e-14
 
 def signed_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Signed uv areas ``(nf,)``, positive for counter-clockwise faces."""
-    a, b, c = uv[faces[:, 0]], uv[faces[:, 1]], uv[faces[:, 2]]
+    a, b, c = (_gather.rows(uv, faces[:, k]) for k in range(3))
     return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
 
 
@@ -202,7 +202,7 @@ class Triangulation:
     def face_adjacency(self) -> np.ndarray:
         """(F, 3) face across the edge opposite each local vertex; -1 on the boundary."""
         fe = self.face_edges
-        ef = self.edge_faces[fe]  # (F, 3, 2)
+        ef = _gather.rows(self.edge_faces, fe)  # (F, 3, 2)
         me = np.arange(self.n_faces)[:, None]
         return np.where(ef[..., 0] == me, ef[..., 1], ef[..., 0])
 
