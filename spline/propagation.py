@@ -166,7 +166,8 @@ class SplineSpace:
             own = np.empty((hi - lo, 3, d))
             for slots, first in ((INNER, lay.inner0), (FLIP, lay.flip0)):
                 _sparse.rows_into(self.M, xs, first + 3 * lo, first + 3 * hi, own.reshape(-1, d))
-                out[lo:hi, slots] = own
+                for k, slot in enumerate(slots):  # basic indexing: a strided copy, no fancy-index loop
+                    out[lo:hi, slot] = own[:, k]
 
         try:
             faces(0, min(1, pidx.shape[0]))  # a kernel that refuses the call fails here, alone

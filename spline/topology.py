@@ -152,10 +152,12 @@ class Triangulation:
         ne = edges.shape[0]
         edge_faces = np.full((ne, 2), -1, np.int64)
         edge_opp = np.full((ne, 2), -1, np.int64)
-        side = (he[:, 0] > he[:, 1]).astype(np.int64)  # 0: traversed a->b (a < b)
-        hidx = np.arange(he.shape[0])
-        edge_faces[inv, side] = hidx // 3
-        edge_opp[inv, side] = hidx % 3
+        # slot (edge, side) of every half-edge; side 0: traversed a->b (a < b). Flat scatters:
+        # numpy's two-array fancy assignment is ~2x slower
+        slot = 2 * inv + (he[:, 0] > he[:, 1])
+        face_of, k_of = np.divmod(np.arange(he.shape[0]), 3)
+        edge_faces.reshape(-1)[slot] = face_of
+        edge_opp.reshape(-1)[slot] = k_of
         return edges, face_edges, edge_faces, edge_opp
 
     @property
