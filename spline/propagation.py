@@ -19,9 +19,12 @@ always solving for the middle points (the paper's choice, which divides by a
 coefficient that vanishes when two edges through ``s`` are collinear, paper
 7.2.2), each vertex system is reduced by Gauss--Jordan elimination with
 complete, weighted pivoting: middle points are preferred, an inner point is
-computed instead when the middle point's coefficient is small. A singular
-vertex (four edges on two lines) makes its system lose rank by one; the
-elimination then leaves one more unknown free, which is exactly the extra
+computed instead when the middle point's coefficient is small. Only the
+equations with such a weak middle-point coefficient need the pivot search:
+every other equation pivots on its own middle point, which no other equation
+holds (vertices without weak equations take that fast path entirely). A
+singular vertex (four edges on two lines) makes its system lose rank by one;
+the elimination then leaves one more unknown free, which is exactly the extra
 dimension of the spline space there. Every surface ``M @ free`` is exactly C1.
 """
 from __future__ import annotations

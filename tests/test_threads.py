@@ -91,3 +91,21 @@ def test_threaded_sort_indices_equals_scipy(monkeypatch):
     assert M.has_sorted_indices
     np.testing.assert_array_equal(M.indices, expected.indices)
     np.testing.assert_array_equal(M.data, expected.data)
+
+
+def test_gathers_equal_fancy_indexing():
+    """``_gather.rows`` / ``at`` are numpy's fancy indexing, only faster: same values, shapes, dtypes."""
+    from trispline.spline import _gather
+
+    rng = np.random.default_rng(3)
+    for a in (rng.normal(size=(50, 2)), rng.integers(-9, 9, size=(50, 4)), rng.normal(size=(50, 21, 3))):
+        for idx in (rng.integers(0, 50, 17), rng.integers(-50, 50, (4, 6)), np.zeros(0, np.int64)):
+            got = _gather.rows(a, idx)
+            assert got.dtype == a.dtype
+            np.testing.assert_array_equal(got, a[idx])
+    F = rng.integers(0, 100, size=(40, 3))
+    i, j = rng.integers(0, 40, 25), rng.integers(0, 3, 25)
+    np.testing.assert_array_equal(_gather.at(F, i, j), F[i, j])
+    np.testing.assert_array_equal(_gather.at(F, i.reshape(5, 5), 2), F[i.reshape(5, 5), 2])
+    with pytest.raises(IndexError):
+        _gather.rows(F, np.array([40]))
