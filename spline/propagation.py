@@ -243,6 +243,13 @@ def _diamond_ids(tri: Triangulation, e: np.ndarray) -> tuple[np.ndarray, ...]:
     return ab[:, 0], ab[:, 1], ef[:, 0], ef[:, 1], eo[:, 0], eo[:, 1]
 
 
+def _weak(c_mid: np.ndarray, c_q: np.ndarray, c_p: np.ndarray, inner_weight: float, tol: float) -> np.ndarray:
+    """Equations whose middle point is no good pivot: its coefficient ``c_mid`` is below
+    ``inner_weight`` times the larger inner-point coefficient, or below ``tol``."""
+    cm = np.abs(c_mid)
+    return ~((cm >= inner_weight * np.maximum(np.abs(c_q), np.abs(c_p))) & (cm > tol))
+
+
 def _flip_pair(lay: NetLayout, f0: np.ndarray, k0: np.ndarray, f1: np.ndarray, k1: np.ndarray,
                c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The two flips of interior edges: ``(computed, free, q_side_computed)``.
@@ -385,7 +392,8 @@ class _Systems:
         corners = tri.fan_corners[tri.fan_ptr[verts][:, None] + np.arange(nc)]  # (nb, nc)
         f, k = np.divmod(corners[:, :m], 3)
         e = _gather.at(tri.face_edges, f, (k + 1) % 3)  # (nb, m): the edge from s shared by corners j and j+1
-        end = (_gather.at(tri.edges, e, 1) == verts[:, None]).astype(np.int64)  # s = b: end 1
+        ab = _gather.rows(tri.edges, e)  # (nb, m, 2)
+        end = (ab[..., 1] == verts[:, None]).astype(np.int64)  # s = b: end 1
         c = _gather.rows(self.c2, self.ie_pos[e])  # (nb, m, 4): (q, p, r, s)
         # at end 1 (s = b) the middle point is the r column and the star the s column; at end 0
         # the other way. Corner j's face is the diamond's p side (f0) or its q side (f1).
@@ -396,9 +404,7 @@ class _Systems:
         col_q = np.where(on_p, j1, j)
         c_mid = np.where(end == 1, c[..., 2], c[..., 3])
         c_star = np.where(end == 1, c[..., 3], c[..., 2])
-        cm = np.abs(c_mid)  # the test of the diamonds stage: only weak rows need a pivot search
-        weak = ~((cm >= self.inner_weight * np.maximum(np.abs(c[..., 0]), np.abs(c[..., 1])))
-                 & (cm > self.singular_tol))
+        weak = _weak(c_mid, c[..., 0], c[..., 1], self.inner_weight, self.singular_tol)  # as in the diamonds stage
         # global ids of the unknowns: inner points (by fan position) then middle points (by row)
         col_pid = np.empty((nb, nc + m), np.int64)
         col_pid[:, :nc] = lay.inner0 + corners
@@ -423,7 +429,7 @@ class _Systems:
         Ar = A[pb, pr]  # (npiv, c)
         Ar[is_piv_col[pb]] = 0.0
         ja, ca = np.nonzero(Ar)
-        w = _gather.at(tri.edges, e, 1 - end)  # (nb, m) far ends of the edges
+        w = np.where(end == 1, ab[..., 0], ab[..., 1])  # (nb, m) far ends of the edges
         sv = _star_weights(tri.uv, self.frame_scale, np.broadcast_to(verts[:, None], w.shape), w)
         frame = -K[:, :, 0, None] * sv[:, None, 0]  # (nb, m, 3)
         for i in range(1, m):  # a fixed summation order: batching cannot change a bit
@@ -541,12 +547,8 @@ def build_space(
             p, q = _gather.at(F, f0, k0), _gather.at(F, f1, k1)
             c = diamond_coefficients(*(_gather.rows(UV, v) for v in (p, q, a, b)))
             c2[lo:hi] = c
-            lim = inner_weight * np.maximum(np.abs(c[:, 0]), np.abs(c[:, 1]))
-            bad = []
-            for s, mid_col in ((a, 3), (b, 2)):
-                cm = np.abs(c[:, mid_col])
-                bad.append(s[~((cm >= lim) & (cm > singular_tol))])
-            return np.concatenate(bad)
+            return np.concatenate([s[_weak(c[:, mid_col], c[:, 0], c[:, 1], inner_weight, singular_tol)]
+                                   for s, mid_col in ((a, 3), (b, 2))])
 
         n_weak = np.bincount(_parallel.concat(work.map(diamonds, n_ie)), minlength=nv)  # weak equations per vertex
         bad_v = n_weak > 0
