@@ -348,10 +348,7 @@ def tessellate(
                     work.submit(edge_chunk, rows_e, int(bounds[k]) + lo, int(bounds[k]) + hi)
 
         # --- corners (here, while the tasks run): exact corner points; normals from the star points
-        first = np.full(nv, -1, np.int64)
-        corners = np.arange(3 * nf)[::-1]
-        first[F.ravel()[corners]] = corners  # the first corner of each vertex wins
-        cf, ck = first // 3, first % 3
+        cf, ck = np.divmod(tri.vertex_corner, 3)  # each vertex's lowest corner
         vertices[:nv] = ctrl[cf, CORNER[ck]]
         uv_pts[:nv] = UV
         if d == 3:

@@ -235,6 +235,14 @@ class Triangulation:
         return nxt
 
     @cached_property
+    def vertex_corner(self) -> np.ndarray:
+        """(nv,) each vertex's lowest corner ``3 f + k`` (``3 F`` for a vertex no face uses)."""
+        n3 = 3 * self.n_faces
+        first = np.full(self.n_vertices, n3, np.int64)  # no sort of all corners
+        np.minimum.at(first, self.faces.ravel(), np.arange(n3))
+        return first
+
+    @cached_property
     def _fans(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """CSR ordered fans: ``(ptr (nv+1,), corners (3F,), fan_count (nv,))``."""
         nxt = self._corner_next
@@ -247,8 +255,7 @@ class Triangulation:
         # vertices with no start are interior: start at their first corner
         has_start = np.zeros(nv, bool)
         has_start[v_of[starts]] = True
-        first = np.full(nv, n3, np.int64)  # each vertex's lowest corner (no sort of all corners)
-        np.minimum.at(first, v_of, np.arange(n3))
+        first = self.vertex_corner
         interior_starts = first[~has_start & (first < n3)]
         all_starts = np.concatenate([starts, interior_starts])
         n_start_per_v = np.bincount(v_of[all_starts], minlength=nv)
