@@ -38,11 +38,13 @@ def matmul(M: sp.csr_array, x: np.ndarray, rows: tuple[int, int] | None = None) 
     """
     x = np.asarray(x)
     lo, hi = rows if rows is not None else (0, M.shape[0])
-    if not kernel_ok(M, x) or M.indptr[hi] - M.indptr[lo] < THREADED_NNZ:
+
+    def plain() -> np.ndarray:  # scipy's own product (its row slice copies that part of M)
         return M @ x if rows is None else M[lo:hi] @ x
-    with _parallel.Workers(hi - lo) as work:
-        if work.threads < 2:
-            return M @ x if rows is None else M[lo:hi] @ x
+
+    if not kernel_ok(M, x) or M.indptr[hi] - M.indptr[lo] < THREADED_NNZ:
+        return plain()
+    with _parallel.Workers(hi - lo) as work:  # one core: the same ranges inline, still no copy of M
         d = x.shape[1]
         xs = np.ascontiguousarray(x).reshape(-1)
         out = np.empty((hi - lo, d))  # every range zeroes (first-touches) its own rows; the kernel adds
@@ -51,7 +53,7 @@ def matmul(M: sp.csr_array, x: np.ndarray, rows: tuple[int, int] | None = None) 
             rows_into(M, xs, lo + a, lo + b, out[a:b])
 
         if not _over_rows(work, hi - lo, part):  # pragma: no cover - scipy changed its private API
-            return M @ x if rows is None else M[lo:hi] @ x
+            return plain()
     return out
 
 

@@ -55,13 +55,13 @@ def test_threaded_matmul_is_bit_identical_to_scipy(monkeypatch, d):
     np.testing.assert_array_equal(_sparse.matmul(M, x[:, 0]), M @ x[:, 0])  # 1-D: scipy's own path
 
 
-@pytest.mark.parametrize("threaded", [False, True])
-def test_row_range_products_equal_scipy_on_the_slice(monkeypatch, threaded):
+@pytest.mark.parametrize("mode", ["scipy", "kernel inline", "kernel threaded"])
+def test_row_range_products_equal_scipy_on_the_slice(monkeypatch, mode):
     rng = np.random.default_rng(7)
     M = sp.csr_array(sp.random(400, 150, density=0.05, format="csr", random_state=rng))
     x = rng.normal(size=(150, 3))
-    if threaded:
-        monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1)
+    if mode != "scipy":  # large-matrix path: ranges of rows through scipy's kernel, inline on one core
+        monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1 if mode == "kernel threaded" else 10**9)
         monkeypatch.setattr(_parallel, "CHUNK", 11)
         monkeypatch.setattr(_sparse, "THREADED_NNZ", 0)
     for lo, hi in [(0, 400), (0, 1), (37, 230), (399, 400), (5, 5)]:
