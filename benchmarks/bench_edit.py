@@ -35,7 +35,7 @@ import time
 
 import numpy as np
 
-from trispline.spline import domains
+from trispline.spline.testing import domains
 from trispline.spline.edit import SplineEditor
 from trispline.spline.propagation import build_space
 
@@ -126,7 +126,7 @@ def refair_table(sizes: list[int]) -> None:
     import jax
 
     jax.config.update("jax_enable_x64", True)
-    from trispline.fit.fitting import fit_surface
+    from trispline.fit.pipeline import fit_surface
     from trispline.fit.refair import LocalRefairer, fairness_energy
 
     hdr = (f"\n{'faces':>7} {'rings':>5} {'free moved':>10} {'patches':>7} {'local ms':>8} "

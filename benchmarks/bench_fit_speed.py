@@ -25,7 +25,7 @@ jax.config.update("jax_enable_x64", True)
 
 from scipy.interpolate import CloughTocher2DInterpolator  # noqa: E402
 
-from trispline.fit.fitting import FitWeights, fit_surface  # noqa: E402
+from trispline.fit.pipeline import FitWeights, fit_surface  # noqa: E402
 from trispline.fit.io import load_mesh  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"

@@ -20,7 +20,7 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 
-from trispline.fit.fitting import fit_surface  # noqa: E402
+from trispline.fit.pipeline import fit_surface  # noqa: E402
 from trispline.fit.io import read_mesh  # noqa: E402
 from trispline.spline.errors import InputError  # noqa: E402
 

@@ -27,7 +27,7 @@ SETTLE_S = 3.0
 CHILD = r"""
 import json, sys, time
 import numpy as np
-from trispline.spline import domains
+from trispline.spline.testing import domains
 from trispline.spline.topology import Triangulation
 from trispline.spline.propagation import build_space
 from trispline.spline.continuity import continuity_report

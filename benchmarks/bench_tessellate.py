@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from trispline.spline import domains
+from trispline.spline.testing import domains
 from trispline.spline.bernstein import bary_grid
 from trispline.spline.polynomial import polynomial_control_net, random_polynomial
 from trispline.spline.tessellate import tessellate

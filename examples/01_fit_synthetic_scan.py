@@ -2,7 +2,7 @@
 
     python examples/01_fit_synthetic_scan.py [OUT_DIR] [--readme-image]
 
-The scan (trispline.fit.synthetic) is an open, bumpy, slightly noisy surface
+The scan (trispline.fit.datasets.synthetic) is an open, bumpy, slightly noisy surface
 patch with a hole. The script fits an exactly C1 quintic spline that
 interpolates every scan vertex, writes the surface file (NPZ, DESIGN.md §6), a
 tessellated PLY with analytic normals, the control net and a rendered picture to
@@ -23,10 +23,10 @@ jax.config.update("jax_enable_x64", True)  # the fit runs in float64
 
 import numpy as np  # noqa: E402
 
-from trispline.fit.export import export_control_net, export_surface, render_image  # noqa: E402
-from trispline.fit.fitting import fit_surface  # noqa: E402
-from trispline.fit.synthetic import synthetic_scan  # noqa: E402
-from trispline.spline._index import CORNER  # noqa: E402
+from trispline.fit.io.export import export_control_net, export_surface, render_image  # noqa: E402
+from trispline.fit.pipeline import fit_surface  # noqa: E402
+from trispline.fit.datasets.synthetic import synthetic_scan  # noqa: E402
+from trispline.spline.index import CORNER  # noqa: E402
 from trispline.spline.continuity import continuity_report  # noqa: E402
 from trispline.spline.surface import SplineSurface  # noqa: E402
 

@@ -34,10 +34,10 @@ import numpy as np  # noqa: E402
 from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from trispline.fit.atomic import atomic_path  # noqa: E402
-from trispline.fit.fitting import FitWeights, fit_surface  # noqa: E402
+from trispline.spline.util.atomic import atomic_path  # noqa: E402
+from trispline.fit.pipeline import FitWeights, fit_surface  # noqa: E402
 from trispline.fit.render import Panel, render_panels  # noqa: E402
-from trispline.fit.synthetic import _ROT, scan_height, synthetic_scan  # noqa: E402
+from trispline.fit.datasets.synthetic import _ROT, scan_height, synthetic_scan  # noqa: E402
 from trispline.spline.bernstein import bary_grid  # noqa: E402
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else os.environ.get("TRISPLINE_EXAMPLE_OUT", "example_output"))

@@ -14,9 +14,9 @@ import time
 import jax
 import numpy as np
 
-from trispline.fit.fitting import fit_surface
+from trispline.fit.pipeline import fit_surface
 from trispline.fit.refair import LocalRefairer, fairness_energy
-from trispline.spline import domains
+from trispline.spline.testing import domains
 from trispline.spline.continuity import continuity_report
 from trispline.spline.edit import DependentPointError, SplineEditor
 

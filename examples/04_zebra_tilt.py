@@ -29,8 +29,8 @@ import numpy as np  # noqa: E402
 from PIL import Image  # noqa: E402
 
 from trispline.fit import render as rd  # noqa: E402
-from trispline.fit.fitting import FitWeights, fit_surface  # noqa: E402
-from trispline.fit.synthetic import synthetic_scan  # noqa: E402
+from trispline.fit.pipeline import FitWeights, fit_surface  # noqa: E402
+from trispline.fit.datasets.synthetic import synthetic_scan  # noqa: E402
 
 args = [a for a in sys.argv[1:] if not a.startswith("--")]
 if "--docs" in sys.argv:

@@ -27,10 +27,10 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 from trispline.fit import render as rd  # noqa: E402
-from trispline.fit.fitting import fit_surface  # noqa: E402
-from trispline.fit.synthetic import synthetic_scan  # noqa: E402
-from trispline.spline._index import index_of  # noqa: E402
-from trispline.spline.domains import grid  # noqa: E402
+from trispline.fit.pipeline import fit_surface  # noqa: E402
+from trispline.fit.datasets.synthetic import synthetic_scan  # noqa: E402
+from trispline.spline.index import index_of  # noqa: E402
+from trispline.spline.testing.domains import grid  # noqa: E402
 from trispline.spline.polynomial import polynomial_control_net  # noqa: E402
 from trispline.spline.surface import SplineSurface  # noqa: E402
 
@@ -95,7 +95,7 @@ def pictures() -> None:
 
 
 def timing() -> None:
-    from trispline.fit.export import render_image
+    from trispline.fit.io.export import render_image
 
     s = graph(224, lambda u, v: 0.2 * (u - 0.5) ** 2 - 0.15 * (v - 0.4) ** 2 + 0.3 * u**3 * v**2 - 0.2 * v**4 * u)
     tess = s.tessellate(1)

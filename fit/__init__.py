@@ -14,8 +14,8 @@ from __future__ import annotations
 import importlib
 
 _EXPORTS = {
-    "fit_surface": "fitting", "FitResult": "fitting", "FitWeights": "fitting", "FitError": "fitting",
-    "DataPoints": "fitting",
+    "fit_surface": "pipeline", "FitResult": "pipeline", "FitWeights": "pipeline", "FitError": "pipeline",
+    "DataPoints": "pipeline",
     "load_mesh": "io", "read_mesh": "io", "MeshData": "io",
 }
 

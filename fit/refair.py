@@ -33,15 +33,15 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from trispline.spline._index import CORNER, NCTRL, STAR
+from trispline.spline.index import CORNER, NCTRL, STAR
 from trispline.spline.edit import EditResult, SplineEditor
 from trispline.spline.errors import InputError
 from trispline.spline.propagation import KIND_CORNER, KIND_FRAME, SplineSpace
 
 from . import energy as en
-from .fitting import FitWeights
-from .gram import thin_plate_gram
-from .normals import local_rbf_fit
+from .pipeline import FitWeights
+from .energy.gram import thin_plate_gram
+from .targets import local_rbf_fit
 
 __all__ = ["LocalRefairer", "RefairResult", "fairness_energy"]
 

@@ -6,7 +6,7 @@ from collections.abc import Callable
 import numpy as np
 from scipy.spatial import Delaunay
 
-from trispline.spline.domains import orient_ccw
+from trispline.spline.testing.domains import orient_ccw
 
 
 def bumps(xy: np.ndarray) -> np.ndarray:

@@ -4,7 +4,7 @@ Pure math (numpy/scipy only): index tables, the Bernstein basis, the domain
 triangulation, the free-to-control propagation map, continuity checks,
 evaluation, point location, tessellation and the surface file format.
 """
-from ._index import CORNER, DEGREE, EXPONENTS, FLIP, INNER, MID, NCTRL, STAR, index_of
+from .index import CORNER, DEGREE, EXPONENTS, FLIP, INNER, MID, NCTRL, STAR, index_of
 from .bernstein import bary_grid, basis, basis_gradient_bary, basis_hessian_bary
 from .continuity import continuity_report, continuity_residuals
 from .errors import InputError, TriangulationError

@@ -12,7 +12,7 @@ from math import factorial
 
 import numpy as np
 
-from ._index import DEGREE, EXPONENTS, NCTRL
+from .index import DEGREE, EXPONENTS, NCTRL
 
 _MULTINOMIAL = np.array(
     [factorial(DEGREE) / (factorial(i) * factorial(j) * factorial(k)) for i, j, k in EXPONENTS]

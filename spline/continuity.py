@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _gather
-from ._index import local_index
+from .util import gather as _gather
+from .index import local_index
 from .propagation import diamond_coefficients
 from .topology import Triangulation
 

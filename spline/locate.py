@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _gather
+from .util import gather as _gather
 from .errors import InputError, first_few
 from .topology import signed_areas
 

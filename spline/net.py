@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _memory
-from ._index import CORNER, FLIP, INNER, MID, NCTRL, STAR
+from .util import memory as _memory
+from .index import CORNER, FLIP, INNER, MID, NCTRL, STAR
 from .topology import Triangulation
 
 

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _gather
-from ._index import NCTRL
+from .util import gather as _gather
+from .index import NCTRL
 from .bernstein import basis, basis_gradient_bary, basis_hessian_bary
 from .errors import InputError, first_few
 from .topology import Triangulation, signed_areas

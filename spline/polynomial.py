@@ -16,8 +16,8 @@ from typing import Callable
 import numpy as np
 import scipy.linalg
 
-from . import _gather
-from ._index import DEGREE
+from .util import gather as _gather
+from .index import DEGREE
 from .bernstein import bary_grid, basis
 from .errors import InputError
 

@@ -35,8 +35,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from . import _gather, _memory, _parallel, _sparse
-from ._index import FLIP, INNER, NCTRL
+from .util import gather as _gather, memory as _memory, parallel as _parallel, sparse as _sparse
+from .index import FLIP, INNER, NCTRL
 from .net import NetLayout, layout_of, point_index
 from .topology import Triangulation
 

@@ -25,7 +25,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ._index import DEGREE, NCTRL
+from .index import DEGREE, NCTRL
 from .errors import InputError, first_few
 
 __all__ = [

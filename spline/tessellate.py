@@ -31,8 +31,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import _gather, _memory
-from ._index import CORNER, NCTRL, STAR
+from .util import gather as _gather, memory as _memory
+from .index import CORNER, NCTRL, STAR
 from .bernstein import basis, basis_gradient_bary
 from .errors import InputError
 from .patches import check_ctrl

@@ -21,7 +21,7 @@ from functools import cached_property
 
 import numpy as np
 
-from . import _gather, _parallel
+from .util import gather as _gather, parallel as _parallel
 from .errors import TriangulationError, first_few
 
 #: Faces whose uv area is below this fraction of the mean face area are rejected.

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import strategies as st
 
-from trispline.spline import domains
+from trispline.spline.testing import domains
 
 
 @st.composite

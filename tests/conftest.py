@@ -1,0 +1,15 @@
+"""Shared test set-up: hypothesis profiles, float64 JAX, the tests folder on ``sys.path``.
+
+Profiles (``HYPOTHESIS_PROFILE``): ``ci`` (the default) is derandomised with no deadline, so
+a run passes or fails the same way every time; ``dev`` explores new random examples.
+"""
+from __future__ import annotations
+
+import os
+
+from hypothesis import HealthCheck, settings
+
+settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True,
+                          suppress_health_check=[HealthCheck.too_slow])
+settings.register_profile("dev", deadline=None)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))

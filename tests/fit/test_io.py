@@ -1,0 +1,144 @@
+"""Mesh loading: order-preserving round trips, polygons, vt, unreferenced vertices, errors."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from trispline.fit.io import MeshData, load_mesh, read_mesh
+from trispline.param import MeshError, UnreferencedVerticesWarning
+from trispline.param.samples import lift
+from trispline.spline.testing.domains import random_delaunay
+from trispline.spline.errors import InputError
+
+DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
+
+
+@pytest.fixture(scope="module")
+def mesh():
+    V, F = lift(*random_delaunay(60, holes=1, seed=3))
+    # shuffle vertex ids so that "same order" is a real check (file order != face order)
+    perm = np.random.default_rng(0).permutation(len(V))
+    inv = np.argsort(perm)
+    return V[perm], inv[F]
+
+
+@pytest.mark.parametrize("ext", ["obj", "ply", "off", "glb"])
+def test_round_trip_keeps_vertex_and_face_order(tmp_path, mesh, ext):
+    V, F = mesh
+    path = tmp_path / f"m.{ext}"
+    trimesh.Trimesh(V, F, process=False).export(path)
+    m = read_mesh(path)
+    assert isinstance(m, MeshData)
+    np.testing.assert_array_equal(m.F, F)
+    # trimesh writes text with ~8 digits and PLY/GLB as float32
+    np.testing.assert_allclose(m.V, V, rtol=0, atol=1e-6)
+    assert m.dropped == 0
+    np.testing.assert_array_equal(m.kept, np.arange(len(V)))
+    assert m.V.dtype == np.float64 and m.F.dtype == np.int64
+
+
+def test_stl_round_trip_merges_exactly_equal_corners(tmp_path, mesh):
+    V, F = mesh
+    path = tmp_path / "m.stl"
+    trimesh.Trimesh(V, F, process=False).export(path)
+    m = read_mesh(path)
+    # STL has no shared vertices: same triangles in the same order, vertices renumbered
+    assert m.F.shape == F.shape and m.V.shape == V.shape
+    np.testing.assert_allclose(m.V[m.F], V[F], rtol=0, atol=1e-6)  # float32 storage
+
+
+def test_load_mesh_convenience(tmp_path, mesh):
+    V, F = mesh
+    path = tmp_path / "m.ply"
+    trimesh.Trimesh(V, F, process=False).export(path)
+    V2, F2 = load_mesh(path)
+    np.testing.assert_array_equal(F2, F)
+    np.testing.assert_allclose(V2, V, rtol=0, atol=1e-6)  # float32 in PLY
+
+
+def test_coincident_vertices_are_not_merged(tmp_path):
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 0], [1, 0, 0], [0, -1, 0]], float)
+    F = np.array([[0, 1, 2], [3, 5, 4]])
+    for ext in ("obj", "off", "ply", "glb"):
+        path = tmp_path / f"c.{ext}"
+        trimesh.Trimesh(V, F, process=False).export(path)
+        m = read_mesh(path)
+        assert m.V.shape == (6, 3), ext
+        np.testing.assert_array_equal(m.F, F)
+
+
+def test_obj_polygons_triangulated_and_vt_as_uv(tmp_path):
+    path = tmp_path / "q.obj"
+    path.write_text(
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0.5 0\n"
+        "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 2 0.5\n"
+        "f 1/1 2/2 3/3 4/4\nf -4/-4 -1/-1 -3/-3\n"
+    )
+    m = read_mesh(path)
+    np.testing.assert_array_equal(m.F, [[0, 1, 2], [0, 2, 3], [1, 4, 2]])
+    np.testing.assert_array_equal(m.uv, [[0, 0], [1, 0], [1, 1], [0, 1], [2, 0.5]])
+
+
+def test_obj_seam_uv_is_not_per_vertex(tmp_path):
+    path = tmp_path / "s.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 9 9\n"
+                    "f 1/1 2/2 3/3\nf 1/5 3/3 4/4\n")
+    m = read_mesh(path)
+    assert m.uv is None
+    assert m.V.shape == (4, 3)  # not split at the seam
+
+
+def test_off_mixed_polygons(tmp_path):
+    path = tmp_path / "p.off"
+    path.write_text("OFF\n# comment\n6 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0.5 1.5 0\n-0.5 0.5 0\n"
+                    "5 0 1 2 4 3\n3 0 3 5\n")
+    m = read_mesh(path)
+    np.testing.assert_array_equal(m.F, [[0, 1, 2], [0, 2, 4], [0, 4, 3], [0, 3, 5]])
+
+
+def test_unreferenced_vertices_dropped_with_warning(tmp_path):
+    path = tmp_path / "u.obj"
+    path.write_text("v 9 9 9\nv 0 0 0\nv 1 0 0\nv 7 7 7\nv 0 1 0\nf 2 3 5\n")
+    with pytest.warns(UnreferencedVerticesWarning, match="dropped 2 vertices"):
+        m = read_mesh(path)
+    assert m.dropped == 2
+    np.testing.assert_array_equal(m.kept, [1, 2, 4])
+    np.testing.assert_array_equal(m.V, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    np.testing.assert_array_equal(m.F, [[0, 1, 2]])
+
+
+def test_errors(tmp_path):
+    assert issubclass(MeshError, InputError)
+    with pytest.raises(MeshError, match="not found"):
+        read_mesh(tmp_path / "nope.obj")
+    (tmp_path / "m.xyz").write_text("1 2 3\n")
+    with pytest.raises(MeshError, match="unknown mesh format '.xyz'"):
+        read_mesh(tmp_path / "m.xyz")
+    (tmp_path / "e.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\n")
+    with pytest.raises(MeshError, match="no faces"):
+        read_mesh(tmp_path / "e.obj")
+    (tmp_path / "bad.ply").write_bytes(b"this is not a ply file at all\n")
+    with pytest.raises(MeshError, match="cannot read"):
+        read_mesh(tmp_path / "bad.ply")
+    (tmp_path / "bad.off").write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n")
+    with pytest.raises(MeshError, match="header announces"):
+        read_mesh(tmp_path / "bad.off")
+    (tmp_path / "range.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n")
+    with pytest.raises(MeshError, match="outside"):
+        read_mesh(tmp_path / "range.obj")
+    (tmp_path / "line.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2\n")
+    with pytest.raises(MeshError, match="fewer than 3"):
+        read_mesh(tmp_path / "line.obj")
+
+
+@pytest.mark.skipif(not (DATA / "beetle.off").exists(), reason="../shared/data not present")
+def test_beetle_keeps_coincident_vertices():
+    path = DATA / "beetle.off"
+    header = [ln.split() for ln in path.read_text().splitlines()[:3] if ln.strip() and not ln.startswith("#")]
+    nv_file = int(header[1][0]) if header[0] == ["OFF"] else int(header[0][1])
+    m = read_mesh(path)
+    assert m.V.shape[0] == nv_file == 19887
+    assert np.unique(m.V, axis=0).shape[0] < m.V.shape[0]  # coincident vertices exist and stay apart

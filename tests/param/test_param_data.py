@@ -1,0 +1,102 @@
+"""Every mesh in ../shared/data: valid ones fold-free under harmonic and LSCM, the pelvis rejected.
+
+Skipped cleanly when the folder is missing. Meshes above 20k faces are marked slow.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from trispline.fit.io import read_mesh
+from trispline.param import MeshError, fold_mask, parameterize, validate_mesh
+from trispline.param import _igl
+from trispline.spline.topology import Triangulation, signed_areas
+
+DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
+VALID = {  # name: (faces, holes)
+    "snail.obj": (1653, 0),
+    "halftunnel.off": (1568, 2),
+    "inspired_mesh.obj": (4288, 0),
+    "lilium.obj": (6590, 0),
+    "camelhead.off": (22704, 0),
+    "face_gpjs.obj": (34144, 0),
+    "beetle.off": (38656, 10),
+    "mountain.obj": (50562, 0),
+}
+needs_data = pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data not present")
+
+
+def _cases():
+    for name, (nf, _) in VALID.items():
+        for method in ("harmonic", "lscm"):
+            marks = [pytest.mark.slow] if nf > 20000 else []
+            yield pytest.param(name, method, marks=marks, id=f"{name}-{method}")
+
+
+@needs_data
+@pytest.mark.parametrize("name,method", list(_cases()))
+def test_data_mesh_fold_free(name, method):
+    path = DATA / name
+    if not path.exists():
+        pytest.skip(f"{name} not present")
+    m = read_mesh(path)
+    nf, holes = VALID[name]
+    assert m.F.shape[0] == nf
+    p = parameterize(m.V, m.F, method)
+    np.testing.assert_array_equal(p.faces, m.F)  # never reordered
+    Triangulation(p.uv, p.faces)
+    fl, dg = fold_mask(p.uv, p.faces)
+    assert not fl.any() and not dg.any()
+    assert p.report["holes"] == holes
+    assert np.all(np.isfinite([v for v in p.distortion.values()]))
+
+
+@needs_data
+@pytest.mark.slow
+def test_beetle_free_holes_fold_but_filled_holes_do_not():
+    path = DATA / "beetle.off"
+    if not path.exists():
+        pytest.skip("beetle.off not present")
+    m = read_mesh(path)
+    vm = validate_mesh(m.V, m.F)
+    outer = vm.boundary_loops[0]
+    free = _igl.harmonic(vm.V, vm.F, outer, _igl.circle_boundary(vm.V, outer))
+    n_folded = int((signed_areas(free, vm.F) <= 0).sum())
+    assert n_folded == 162  # the documented failure of leaving the holes free
+    p = parameterize(m.V, m.F, "harmonic")
+    assert p.repaired is None and p.distortion["flipped_before_repair"] == 0
+
+
+@needs_data
+def test_pelvis_rejected():
+    path = DATA / "pelvis-registration-partial.obj"
+    if not path.exists():
+        pytest.skip("pelvis-registration-partial.obj not present")
+    m = read_mesh(path)
+    with pytest.raises(MeshError) as e:
+        validate_mesh(m.V, m.F)
+    msg = str(e.value)
+    assert "4 connected components" in msg and "keep-largest" in msg
+    assert "non-manifold (bowtie) vertices" in msg and ": 27 (first:" in msg
+    assert set(e.value.kinds) == {"components", "bowtie_vertices"}
+    with pytest.raises(MeshError, match="bowtie"):
+        parameterize(m.V, m.F, "harmonic")
+    with pytest.raises(MeshError, match=r"bowtie\) vertices.*: 22 \(first"):
+        validate_mesh(m.V, m.F, keep_largest=True)  # the largest component still has bowties
+
+
+@needs_data
+@pytest.mark.slow
+def test_mountain_is_a_y_up_height_field():
+    path = DATA / "mountain.obj"
+    if not path.exists():
+        pytest.skip("mountain.obj not present")
+    m = read_mesh(path)
+    with pytest.raises(MeshError, match=r"folds \d+ triangles.*pass uv=V\[:, \[0, 2\]\]"):
+        parameterize(m.V, m.F, "uv", repair=False)
+    p = parameterize(m.V, m.F, "uv", uv=m.V[:, [0, 2]])
+    assert p.repaired is None and p.transform.mirrored  # (x, z) is clockwise seen from +y
+    np.testing.assert_allclose(p.transform.to_raw(p.uv), m.V[:, [0, 2]] * [-1.0, 1.0], atol=1e-9)
+    Triangulation(p.uv, p.faces)

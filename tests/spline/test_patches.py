@@ -1,0 +1,203 @@
+"""Patch evaluation, uv-derivatives, the fixed-sample fast path and numeric continuity."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from trispline.spline.testing import domains
+from trispline.spline.errors import InputError
+from trispline.spline.patches import (
+    evaluate,
+    evaluate_derivatives,
+    evaluate_grid,
+    face_bary_gradients,
+    numeric_continuity,
+)
+from trispline.spline.bernstein import bary_grid
+from trispline.spline.polynomial import polynomial_control_net, random_polynomial
+from trispline.spline.topology import Triangulation
+from triangulations import SMALL_DOMAINS
+
+DOMAINS = SMALL_DOMAINS
+domain_names = st.sampled_from(sorted(DOMAINS))
+
+
+def _queries(rng, nf, n):
+    return rng.integers(0, nf, n), rng.dirichlet(np.ones(3), n)
+
+
+def _uv_of(uv, faces, fidx, bary):
+    return np.einsum("nk,nkc->nc", bary, uv[faces[fidx]])
+
+
+@settings(max_examples=25, deadline=None)
+@given(name=domain_names, seed=st.integers(0, 500))
+def test_polynomial_reproduced_with_derivatives(name, seed):
+    uv, faces = DOMAINS[name](seed)
+    func = random_polynomial(5, 3, seed)
+    ctrl = polynomial_control_net(uv, faces, func)
+    rng = np.random.default_rng(seed)
+    fidx, bary = _queries(rng, faces.shape[0], 100)
+    p = _uv_of(uv, faces, fidx, bary)
+    r = evaluate_derivatives(uv, faces, ctrl, fidx, bary, second=True)
+    np.testing.assert_allclose(evaluate(uv, faces, ctrl, fidx, bary), func(p), atol=1e-11)
+    np.testing.assert_allclose(r.values, func(p), atol=1e-11)
+    for got, (du, dv) in [(r.du, (1, 0)), (r.dv, (0, 1)), (r.uu, (2, 0)), (r.uv, (1, 1)), (r.vv, (0, 2))]:
+        ref = func.derivative(p, du, dv)
+        # derivative rounding grows like 1/h^order for small (sliver) faces
+        h = np.sqrt(Triangulation(uv, faces).areas.min())
+        scale = (np.abs(ref).max() + 1.0) * max(1.0, h ** -(du + dv))
+        np.testing.assert_allclose(got, ref, atol=1e-10 * scale, err_msg=f"d{du}{dv}")
+
+
+def test_derivatives_match_finite_differences_of_random_net():
+    """Chain rule checked without the polynomial oracle: a random (non-polynomial) net."""
+    uv, faces = domains.random_delaunay(20, seed=4)
+    rng = np.random.default_rng(0)
+    ctrl = rng.standard_normal((faces.shape[0], 21, 3))
+    fidx = rng.integers(0, faces.shape[0], 50)
+    bary = 0.2 + 0.4 * rng.dirichlet(np.ones(3), 50)  # well inside: all coords >= 0.2
+    bary /= bary.sum(1, keepdims=True)
+    G = face_bary_gradients(uv, faces)[fidx]  # (n, 3, 2)
+    r = evaluate_derivatives(uv, faces, ctrl, fidx, bary, second=True)
+    h = 1e-5 * np.sqrt(Triangulation(uv, faces).areas.mean())
+
+    def at(shift):
+        return evaluate(uv, faces, ctrl, fidx, bary + shift)
+
+    su, sv = h * G[:, :, 0], h * G[:, :, 1]
+    fd_u = (at(su) - at(-su)) / (2 * h)
+    fd_v = (at(sv) - at(-sv)) / (2 * h)
+    scale = np.abs(r.du).max() + np.abs(r.dv).max()
+    np.testing.assert_allclose(r.du, fd_u, atol=1e-6 * scale)
+    np.testing.assert_allclose(r.dv, fd_v, atol=1e-6 * scale)
+    fd_uv = (evaluate_derivatives(uv, faces, ctrl, fidx, bary + sv).du
+             - evaluate_derivatives(uv, faces, ctrl, fidx, bary - sv).du) / (2 * h)
+    fd_uu = (evaluate_derivatives(uv, faces, ctrl, fidx, bary + su).du
+             - evaluate_derivatives(uv, faces, ctrl, fidx, bary - su).du) / (2 * h)
+    s2 = np.abs(r.uu).max() + np.abs(r.uv).max()
+    np.testing.assert_allclose(r.uv, fd_uv, atol=1e-5 * s2)
+    np.testing.assert_allclose(r.uu, fd_uu, atol=1e-5 * s2)
+
+
+def test_partition_of_unity():
+    uv, faces = domains.l_shape(30)
+    ctrl = np.ones((faces.shape[0], 21, 1))
+    fidx, bary = _queries(np.random.default_rng(1), faces.shape[0], 64)
+    r = evaluate_derivatives(uv, faces, ctrl, fidx, bary, second=True)
+    np.testing.assert_allclose(r.values, 1.0, atol=1e-13)
+    for a in (r.du, r.dv, r.uu, r.uv, r.vv):
+        np.testing.assert_allclose(a, 0.0, atol=1e-9)
+
+
+def test_grid_fast_path_matches_scattered_evaluation():
+    uv, faces = domains.random_delaunay(25, holes=1, seed=5)
+    rng = np.random.default_rng(2)
+    ctrl = rng.standard_normal((faces.shape[0], 21, 3))
+    g = bary_grid(4)
+    (vals,) = evaluate_grid(ctrl, g)
+    v2, du, dv = evaluate_grid(ctrl, g, uv=uv, faces=faces)
+    nf, n = faces.shape[0], g.shape[0]
+    fidx = np.repeat(np.arange(nf), n)
+    r = evaluate_derivatives(uv, faces, ctrl, fidx, np.tile(g, (nf, 1)))
+    np.testing.assert_allclose(vals.reshape(-1, 3), r.values, atol=1e-12)
+    np.testing.assert_allclose(v2.reshape(-1, 3), r.values, atol=1e-12)
+    np.testing.assert_allclose(du.reshape(-1, 3), r.du, rtol=1e-10, atol=1e-10 * np.abs(r.du).max())
+    np.testing.assert_allclose(dv.reshape(-1, 3), r.dv, rtol=1e-10, atol=1e-10 * np.abs(r.dv).max())
+
+
+def test_bary_gradients_match_triangulation():
+    uv, faces = domains.annulus(2, 10)
+    np.testing.assert_allclose(face_bary_gradients(uv, faces), Triangulation(uv, faces).bary_gradients, rtol=1e-13)
+
+
+def test_evaluate_input_errors():
+    uv, faces = domains.grid(2)
+    ctrl = np.zeros((faces.shape[0], 21, 3))
+    with pytest.raises(InputError, match="control points must have shape"):
+        evaluate(uv, faces, ctrl[:, :20], np.array([0]), np.array([[1.0, 0, 0]]))
+    with pytest.raises(InputError, match="face_idx outside"):
+        evaluate(uv, faces, ctrl, np.array([0, faces.shape[0]]), np.full((2, 3), 1 / 3))
+    with pytest.raises(InputError, match="bary must have shape"):
+        evaluate(uv, faces, ctrl, np.array([0, 1]), np.full((3, 3), 1 / 3))
+    with pytest.raises(InputError, match="1-d integer"):
+        evaluate(uv, faces, ctrl, np.array([0.0]), np.full((1, 3), 1 / 3))
+
+
+# ----------------------------------------------------------------- continuity
+@settings(max_examples=20, deadline=None)
+@given(name=domain_names, seed=st.integers(0, 500))
+def test_polynomial_surface_is_numerically_c1(name, seed):
+    uv, faces = DOMAINS[name](seed)
+    ctrl = polynomial_control_net(uv, faces, random_polynomial(5, 3, seed))
+    r = numeric_continuity(uv, faces, ctrl)
+    assert r["c0_relative"] < 1e-12
+    # slivers: gradients of a patch are ~1/width times its control point differences
+    assert r["c1_relative"] < 1e-9
+    assert r["c0_per_edge"].shape == r["edges"].shape
+
+
+def _perturbed_off_edge(uv, faces, ctrl):
+    """Move the flip point f(b^2 c^2 a) of a face with an interior edge bc (off that edge)."""
+    tri = Triangulation(uv, faces)
+    e = tri.interior_edges[0]
+    f, k = tri.edge_faces[e, 0], tri.edge_opposite[e, 0]
+    from trispline.spline.index import FLIP
+
+    bad = ctrl.copy()
+    bad[f, FLIP[k]] += 0.1 * np.linalg.norm(np.ptp(ctrl.reshape(-1, 3), axis=0))
+    return bad, e
+
+
+def test_negative_control_c1_jump_without_c0_jump():
+    uv, faces = domains.random_delaunay(30, holes=1, seed=7)
+    ctrl = polynomial_control_net(uv, faces, random_polynomial(5, 3, 1))
+    bad, e = _perturbed_off_edge(uv, faces, ctrl)
+    r = numeric_continuity(uv, faces, bad)
+    assert r["c0_relative"] < 1e-12
+    assert r["c1_relative"] > 1e-3
+    worst = r["edges"][np.argmax(r["c1_per_edge"])]
+    assert worst == e
+
+
+def test_random_per_patch_nets_are_discontinuous():
+    uv, faces = domains.grid(3)
+    ctrl = np.random.default_rng(0).standard_normal((faces.shape[0], 21, 3))
+    r = numeric_continuity(uv, faces, ctrl)
+    assert r["c0_relative"] > 1e-2 and r["c1_relative"] > 1e-2
+
+
+def test_lone_triangle_has_no_interior_edges():
+    uv, faces = domains.lone_triangle()
+    r = numeric_continuity(uv, faces, np.zeros((1, 21, 3)))
+    assert r["c0_max"] == 0.0 and r["edges"].size == 0
+    with pytest.raises(InputError, match="n_samples"):
+        numeric_continuity(uv, faces, np.zeros((1, 21, 3)), n_samples=1)
+
+
+try:  # the lead's propagation map: C1 splines that are not polynomials
+    from trispline.spline.propagation import build_space
+except ImportError:  # pragma: no cover
+    build_space = None
+
+needs_space = pytest.mark.skipif(build_space is None, reason="trispline.spline.propagation not available")
+
+
+@needs_space
+@settings(max_examples=15, deadline=None)
+@given(name=st.sampled_from(["delaunay", "holes", "lshape", "annulus", "grid", "crisscross", "fan"]),
+       seed=st.integers(0, 500))
+def test_spline_from_space_is_c1_and_perturbation_breaks_only_c1(name, seed):
+    uv, faces = DOMAINS[name](seed)
+    space = build_space(uv, faces)
+    free = np.random.default_rng(seed).standard_normal((space.n_free, 3))
+    ctrl = space.control_points(free)
+    r = numeric_continuity(uv, faces, ctrl)
+    assert r["c0_relative"] < 1e-12
+    assert r["c1_relative"] < 1e-9
+    bad, _ = _perturbed_off_edge(uv, faces, ctrl)
+    rb = numeric_continuity(uv, faces, bad)
+    assert rb["c0_relative"] < 1e-12
+    assert rb["c1_relative"] > 1e-4

@@ -1,0 +1,111 @@
+"""Helpers that split large arrays over threads: same results as the one-call numpy/scipy forms."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from trispline.spline.util import memory as _memory, parallel as _parallel, sparse as _sparse
+
+
+@pytest.mark.parametrize("n, chunk", [(0, 3), (1, 3), (10, 3), (12, 4), (5, 100)])
+def test_ranges_cover_once_in_order(n, chunk):
+    r = _parallel.ranges(n, chunk)
+    covered = [i for lo, hi in r for i in range(lo, hi)]
+    assert covered == list(range(n))
+    assert all(0 < hi - lo <= chunk for lo, hi in r)
+
+
+def test_workers_map_returns_in_order_and_raises(monkeypatch):
+    monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1)
+    with _parallel.Workers(100) as work:
+        assert work.map(lambda lo, hi: (lo, hi), 10, chunk=3) == [(0, 3), (3, 6), (6, 9), (9, 10)]
+        assert work.submit(sum, [1, 2]).result() == 3
+
+        def boom(lo, hi):
+            raise RuntimeError(f"range {lo}")
+
+        with pytest.raises(RuntimeError, match="range"):
+            work.map(boom, 10, chunk=2)
+
+
+@pytest.mark.parametrize("value, dtype", [(0, np.float64), (-1, np.int32), (True, bool), (2.5, np.float32)])
+def test_full_fills_large_and_small_arrays(monkeypatch, value, dtype):
+    monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1)
+    for nbytes_limit in (_memory.PREFAULT_BYTES, 1):  # small path, then the threaded fill
+        monkeypatch.setattr(_memory, "PREFAULT_BYTES", nbytes_limit)
+        a = _memory.full((37, 5), value, dtype)
+        assert a.dtype == dtype and a.shape == (37, 5)
+        np.testing.assert_array_equal(a, np.full((37, 5), value, dtype))
+    assert not _memory.empty(1000).any()
+
+
+@pytest.mark.parametrize("d", [1, 3, 4])
+def test_threaded_matmul_is_bit_identical_to_scipy(monkeypatch, d):
+    rng = np.random.default_rng(d)
+    M = sp.csr_array(sp.random(503, 211, density=0.03, format="csr", random_state=rng))
+    x = rng.normal(size=(211, d))
+    expected = M @ x
+    monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1)
+    monkeypatch.setattr(_parallel, "CHUNK", 17)
+    monkeypatch.setattr(_sparse, "THREADED_NNZ", 0)
+    got = _sparse.matmul(M, x)
+    assert got.shape == expected.shape
+    np.testing.assert_array_equal(got, expected)
+    np.testing.assert_array_equal(_sparse.matmul(M, x[:, 0]), M @ x[:, 0])  # 1-D: scipy's own path
+
+
+@pytest.mark.parametrize("mode", ["scipy", "kernel inline", "kernel threaded"])
+def test_row_range_products_equal_scipy_on_the_slice(monkeypatch, mode):
+    rng = np.random.default_rng(7)
+    M = sp.csr_array(sp.random(400, 150, density=0.05, format="csr", random_state=rng))
+    x = rng.normal(size=(150, 3))
+    if mode != "scipy":  # large-matrix path: ranges of rows through scipy's kernel, inline on one core
+        monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1 if mode == "kernel threaded" else 10**9)
+        monkeypatch.setattr(_parallel, "CHUNK", 11)
+        monkeypatch.setattr(_sparse, "THREADED_NNZ", 0)
+    for lo, hi in [(0, 400), (0, 1), (37, 230), (399, 400), (5, 5)]:
+        np.testing.assert_array_equal(_sparse.matmul(M, x, rows=(lo, hi)), M[lo:hi] @ x)
+        out = np.full((hi - lo, 3), np.nan)  # overwritten, not accumulated into
+        _sparse.rows_into(M, x.reshape(-1), lo, hi, out)
+        np.testing.assert_array_equal(out, M[lo:hi] @ x)
+    with pytest.raises(ValueError, match="contiguous"):
+        _sparse.rows_into(M, x.reshape(-1), 0, 4, np.empty((3, 4)).T)
+
+
+def test_threaded_sort_indices_equals_scipy(monkeypatch):
+    rng = np.random.default_rng(5)
+    n, per_row = 300, 6
+    indptr = np.arange(0, n * per_row + 1, per_row, dtype=np.int32)
+    indices = np.concatenate([rng.permutation(40)[:per_row] for _ in range(n)]).astype(np.int32)
+    data = rng.normal(size=indices.size)
+    expected = sp.csr_array((data.copy(), indices.copy(), indptr.copy()), shape=(n, 40))
+    expected.sort_indices()
+    monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1)
+    monkeypatch.setattr(_parallel, "CHUNK", 13)
+    monkeypatch.setattr(_sparse, "THREADED_NNZ", 0)
+    M = sp.csr_array((data, indices, indptr), shape=(n, 40))
+    assert not M.has_sorted_indices
+    with _parallel.Workers(n) as work:
+        _sparse.sort_indices(M, work)
+    assert M.has_sorted_indices
+    np.testing.assert_array_equal(M.indices, expected.indices)
+    np.testing.assert_array_equal(M.data, expected.data)
+
+
+def test_gathers_equal_fancy_indexing():
+    """``_gather.rows`` / ``at`` are numpy's fancy indexing, only faster: same values, shapes, dtypes."""
+    from trispline.spline.util import gather as _gather
+
+    rng = np.random.default_rng(3)
+    for a in (rng.normal(size=(50, 2)), rng.integers(-9, 9, size=(50, 4)), rng.normal(size=(50, 21, 3))):
+        for idx in (rng.integers(0, 50, 17), rng.integers(-50, 50, (4, 6)), np.zeros(0, np.int64)):
+            got = _gather.rows(a, idx)
+            assert got.dtype == a.dtype
+            np.testing.assert_array_equal(got, a[idx])
+    F = rng.integers(0, 100, size=(40, 3))
+    i, j = rng.integers(0, 40, 25), rng.integers(0, 3, 25)
+    np.testing.assert_array_equal(_gather.at(F, i, j), F[i, j])
+    np.testing.assert_array_equal(_gather.at(F, i.reshape(5, 5), 2), F[i.reshape(5, 5), 2])
+    with pytest.raises(IndexError):
+        _gather.rows(F, np.array([40]))
