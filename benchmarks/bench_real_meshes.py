@@ -18,7 +18,6 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
-import numpy as np  # noqa: E402
 
 from trispline.fit.pipeline import fit_surface  # noqa: E402
 from trispline.fit.io import read_mesh  # noqa: E402

@@ -35,6 +35,7 @@ from . import energy as en
 from .energy.gram import thin_plate_gram
 from .targets import area_weighted_normals, fitted_normals, local_rbf_fit
 from .solve import FactorSolver, SparseCholesky, require_x64
+from .errors import FitError
 
 __all__ = ["FitWeights", "FitResult", "FitError", "fit_surface", "DataPoints"]
 
@@ -44,9 +45,6 @@ GN_ATOL = 1e-9
 #: The solve must reach this relative stationarity to count as converged.
 CONVERGED_GRAD_RTOL = 1e-6
 
-
-class FitError(RuntimeError):
-    """The solver did not converge (raised by :func:`fit_surface` unless ``throw=False``)."""
 
 
 @dataclass(frozen=True)

@@ -24,12 +24,10 @@ import jax.numpy as jnp
 import lineax as lx
 import numpy as np
 import scipy.sparse as sp
+from .errors import X64Error
 
 __all__ = ["SparseCholesky", "FactorSolver", "require_x64"]
 
-
-class X64Error(RuntimeError):
-    """JAX is not running in float64."""
 
 
 def require_x64() -> None:

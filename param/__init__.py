@@ -5,6 +5,7 @@
     p = parameterize(vm.V, vm.F, method="harmonic")
     p.uv, p.faces, p.distortion, p.repaired
 """
+from ._igl import closest_points
 from .distortion import face_distortion, face_jacobians, summarize
 from .errors import MeshError, MeshWarning, UnreferencedVerticesWarning
 from .parameterize import (
@@ -17,5 +18,5 @@ __all__ = [
     "ValidatedMesh", "face_areas_3d", "validate_mesh",
     "METHODS", "Parameterization", "UVTransform", "parameterize",
     "fill_holes", "fold_mask", "normalise", "tutte",
-    "face_distortion", "face_jacobians", "summarize",
+    "face_distortion", "face_jacobians", "summarize", "closest_points",
 ]

@@ -46,6 +46,7 @@ import scipy.sparse as sp
 
 from .errors import InputError, first_few
 from .propagation import KIND_FRAME, KIND_NAMES, SplineSpace
+from .errors import DependentPointError, NotC1Error
 
 __all__ = ["SplineEditor", "EditResult", "DependentPointError", "NotC1Error"]
 
@@ -54,17 +55,6 @@ __all__ = ["SplineEditor", "EditResult", "DependentPointError", "NotC1Error"]
 FROM_SURFACE_RTOL = 1e-9
 
 
-class DependentPointError(InputError):
-    """The control point is computed by the propagation, not free; see ``controllers``."""
-
-    def __init__(self, message: str, point: int, controllers: np.ndarray) -> None:
-        super().__init__(message)
-        self.point = point
-        self.controllers = controllers
-
-
-class NotC1Error(InputError):
-    """A surface's control net is not in the C1 spline space of its triangulation."""
 
 
 @dataclass(frozen=True)

@@ -16,16 +16,69 @@ source for it.
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 DEGREE = 5
 NCTRL = 21
 
+
+
+@lru_cache(maxsize=32)
+def lattice(r: int) -> np.ndarray:
+    """``(n, 3)`` int64 lattice points ``(i, j, k)``, ``i + j + k = r``, in storage order.
+
+    ``n = (r + 1)(r + 2) / 2``; ``i`` descending, then ``j`` descending. For ``r = 5`` these
+    are the control points' exponents (:data:`EXPONENTS`); ``lattice(r) / r`` are the
+    barycentric coordinates of the regular sample grid with ``r`` steps per edge.
+    """
+    r = int(r)
+    if r < 1:
+        raise ValueError(f"the lattice needs r >= 1, got {r}")
+    out = np.array([(i, j, r - i - j) for i in range(r, -1, -1) for j in range(r - i, -1, -1)], np.int64)
+    out.setflags(write=False)
+    return out
+
+
+def _lattice_id(i: int, j: int, r: int) -> int:
+    """Position of ``(i, j, r - i - j)`` in :func:`lattice`: rows of ``i`` come in blocks."""
+    return (r - i) * (r - i + 1) // 2 + (r - i - j)
+
+
+@lru_cache(maxsize=32)
+def lattice_triangles(r: int) -> np.ndarray:
+    """``(r^2, 3)`` int64 triangles of the lattice (indices into :func:`lattice`), counter-clockwise.
+
+    Oriented like the face ``(a, b, c)``: the "upward" triangle at ``(i, j, k)`` is
+    ``(i, j, k), (i-1, j+1, k), (i-1, j, k+1)``; between two of them sits the "downward"
+    ``(i-1, j+1, k), (i-2, j+1, k+1), (i-1, j, k+1)``.
+    """
+    r = int(r)
+    lattice(r)  # validates r
+    tris = []
+    for i in range(r, 0, -1):
+        for j in range(r - i + 1):
+            tris.append((_lattice_id(i, j, r), _lattice_id(i - 1, j + 1, r), _lattice_id(i - 1, j, r)))
+            if i >= 2:
+                tris.append((_lattice_id(i - 1, j + 1, r), _lattice_id(i - 2, j + 1, r), _lattice_id(i - 1, j, r)))
+    out = np.array(tris, np.int64)
+    out.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=32)
+def lattice_edges(r: int) -> np.ndarray:
+    """``(3 r (r + 1) / 2, 2)`` int64 unique edges of :func:`lattice_triangles`, sorted."""
+    t = lattice_triangles(r)
+    e = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    out = np.unique(e, axis=0)
+    out.setflags(write=False)
+    return out
+
+
 #: (21, 3) exponents (i, j, k) of the storage order.
-EXPONENTS: np.ndarray = np.array(
-    [(i, j, DEGREE - i - j) for i in range(DEGREE, -1, -1) for j in range(DEGREE - i, -1, -1)],
-    dtype=np.int64,
-)
+EXPONENTS: np.ndarray = lattice(DEGREE)
 _LOOKUP = {tuple(int(x) for x in e): n for n, e in enumerate(EXPONENTS)}
 
 

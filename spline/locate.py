@@ -17,15 +17,13 @@ import numpy as np
 from .util import gather as _gather
 from .errors import InputError, first_few
 from .topology import signed_areas
+from .errors import OutsideDomainError
 
 __all__ = ["Locator", "locate", "OutsideDomainError"]
 
 #: Relative tolerance (of the barycentric coordinates) for points on edges.
 BARY_TOL = 1e-10
 
-
-class OutsideDomainError(InputError):
-    """Query points lie outside the uv domain."""
 
 
 @dataclass(frozen=True, eq=False)

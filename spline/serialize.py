@@ -27,6 +27,7 @@ import numpy as np
 
 from .index import DEGREE, NCTRL
 from .errors import InputError, first_few
+from .errors import SurfaceFileError
 
 __all__ = [
     "FORMAT",
@@ -41,9 +42,6 @@ FORMAT = "trispline.surface"
 VERSION = 1
 _REQUIRED = ("format", "version", "degree", "uv", "faces", "control_points")
 
-
-class SurfaceFileError(InputError):
-    """A surface file that cannot be read: wrong file, version, keys, shapes or values."""
 
 
 def _suffix(path: Path) -> str:

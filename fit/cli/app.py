@@ -36,6 +36,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from trispline.spline.errors import InputError
+from ..errors import CommandFailed, UsageError
 
 __all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILURE", "EXIT_INPUT", "EXIT_CHECK", "UsageError", "CommandFailed", "WEIGHT_FIELDS", "mesh_report", "surface_report"]
 
@@ -53,12 +54,6 @@ CHECK_TOLERANCE = 1e-9
 EXAMPLE_FACES = 800
 
 
-class UsageError(InputError):
-    """A bad command line (unknown option, missing argument, invalid value)."""
-
-
-class CommandFailed(RuntimeError):
-    """The command could not finish for a reason that is not a bug (exit 1, one line)."""
 
 
 class _Parser(argparse.ArgumentParser):

@@ -27,7 +27,8 @@ import numpy as np
 from trispline.spline.index import DEGREE, EXPONENTS, NCTRL, index_of
 from trispline.spline.tessellate import Tessellation
 
-from trispline.spline.util.atomic import AtomicOutputs, OutputError
+from trispline.spline.util.atomic import AtomicOutputs
+from ..errors import ExportFormatError
 
 if TYPE_CHECKING:  # pragma: no cover
     import trimesh
@@ -48,9 +49,6 @@ SURFACE_FORMATS = (".npz", ".json")
 IMAGE_FORMATS = (".png",)
 EXPORT_FORMATS = MESH_FORMATS + SURFACE_FORMATS + IMAGE_FORMATS
 
-
-class ExportFormatError(OutputError):
-    """An output file name whose suffix names no format we can write."""
 
 
 def check_export_path(path: str | os.PathLike, formats: tuple[str, ...] = EXPORT_FORMATS) -> str:

@@ -45,9 +45,9 @@ import numpy as np
 
 from trispline.spline.index import NCTRL
 from trispline.spline.bernstein import basis, basis_gradient_bary, basis_hessian_bary
-from trispline.spline.errors import InputError
 
 from trispline.spline.util.atomic import atomic_path
+from ..errors import RenderError, RenderFallbackWarning
 
 if TYPE_CHECKING:  # pragma: no cover
     from trispline.spline.surface import SplineSurface
@@ -88,12 +88,6 @@ _NAN_RGB = (0.6, 0.6, 0.6)
 _STRIPE_RGB = ((0.97, 0.97, 0.97), (0.08, 0.08, 0.08))
 
 
-class RenderError(InputError):
-    """A bad render request (unknown mode or view, bad size, deviation without a data mesh)."""
-
-
-class RenderFallbackWarning(UserWarning):
-    """PyVista/VTK was not usable; the picture was drawn with matplotlib instead."""
 
 
 # ============================================================================ options
@@ -425,7 +419,7 @@ def deviation(points: np.ndarray, V: np.ndarray, F: np.ndarray) -> np.ndarray:
     AABB tree); the sign is that of ``(P - C) . n_f`` with ``C`` the closest point
     and ``n_f`` the normal of its face (``+`` on the side the face normal points to).
     """
-    from trispline.param._igl import closest_points  # libigl's AABB tree: about 2 s per million points
+    from trispline.param import closest_points  # libigl AABB tree: about 2 s per million points
 
     P = np.ascontiguousarray(points, np.float64)
     V, F = _as_mesh((V, F))

@@ -23,13 +23,10 @@ from pathlib import Path
 from types import TracebackType
 from typing import Iterator
 
-from trispline.spline.errors import InputError
+from trispline.spline.errors import OutputError
 
 __all__ = ["OutputError", "AtomicOutputs", "atomic_path", "write_bytes", "write_text"]
 
-
-class OutputError(InputError):
-    """An output path that cannot be written (missing folder, a folder, no permission)."""
 
 
 def _temp_for(path: Path) -> Path:

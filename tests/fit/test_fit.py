@@ -118,7 +118,6 @@ def test_nonlinear_angle_term_converges(franke_fit):
     assert res.energies["angle"] > 0
     # the angle term pulls the normals toward the data normals: its unweighted energy
     # at the optimum is below that of the fit without it
-    from trispline.fit import energy as en
 
     assert res.energies["angle"] / 50.0 < _angle_energy_of(base, res)
 

@@ -1,0 +1,32 @@
+"""Every exception and warning type of the fit layer (on top of :mod:`trispline.spline.errors`)."""
+from __future__ import annotations
+
+from trispline.spline.errors import InputError, OutputError
+
+
+class FitError(RuntimeError):
+    """The solver did not converge (raised by :func:`fit_surface` unless ``throw=False``)."""
+
+
+class X64Error(RuntimeError):
+    """JAX is not running in float64."""
+
+
+class ExportFormatError(OutputError):
+    """An output file name whose suffix names no format we can write."""
+
+
+class RenderError(InputError):
+    """A bad render request (unknown mode or view, bad size, deviation without a data mesh)."""
+
+
+class RenderFallbackWarning(UserWarning):
+    """PyVista/VTK was not usable; the picture was drawn with matplotlib instead."""
+
+
+class UsageError(InputError):
+    """A bad command line (unknown option, missing argument, invalid value)."""
+
+
+class CommandFailed(RuntimeError):
+    """The command could not finish for a reason that is not a bug (exit 1, one line)."""
