@@ -29,6 +29,7 @@ from .topology import Triangulation, signed_areas
 __all__ = [
     "PatchDerivatives",
     "check_ctrl",
+    "edge_samples",
     "evaluate",
     "evaluate_derivatives",
     "evaluate_grid",
@@ -194,6 +195,37 @@ def evaluate_grid(
     return np.ascontiguousarray(vals), du, dv
 
 
+def edge_samples(tri: Triangulation, edges: np.ndarray, t: np.ndarray, *, side: int | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Where the samples ``t (m,)`` in ``[0, 1]`` along domain edges lie in an adjacent patch.
+
+    Sample ``t`` of edge ``e`` is the domain point ``(1 - t) uv[a] + t uv[b]`` with
+    ``(a, b) = tri.edges[e]``. ``side`` 0 or 1 picks ``tri.edge_faces[e, side]`` (it must
+    exist); ``None`` picks the first face that exists (boundary edges have one).
+
+    Returns
+    -------
+    face : (n,) the patch of each edge
+    bary : (n, m, 3) barycentric coordinates of the samples in that patch
+    """
+    edges = np.asarray(edges, np.int64)
+    t = np.asarray(t, np.float64)
+    ef = _gather.rows(tri.edge_faces, edges)
+    f = np.where(ef[:, 0] >= 0, ef[:, 0], ef[:, 1]) if side is None else ef[:, side]
+    if (f < 0).any():
+        raise InputError(f"edge_samples: {int((f < 0).sum())} edges have no face on side {side}")
+    ab = _gather.rows(tri.edges, edges)
+    fv = _gather.rows(tri.faces, f)  # (n, 3)
+    la = np.argmax(fv == ab[:, :1], axis=1)
+    lb = np.argmax(fv == ab[:, 1:], axis=1)
+    n, m = edges.size, t.size
+    bary = np.zeros((n, m, 3))
+    rows, cols = np.arange(n)[:, None], np.arange(m)[None, :]
+    bary[rows, cols, la[:, None]] = 1.0 - t
+    bary[rows, cols, lb[:, None]] = t
+    return f, bary
+
+
 def numeric_continuity(
     uv: np.ndarray, faces: np.ndarray, ctrl: np.ndarray, n_samples: int = 7
 ) -> dict:
@@ -224,19 +256,11 @@ def numeric_continuity(
         return dict(c0_max=0.0, c1_max=0.0, c0_relative=0.0, c1_relative=0.0,
                     c0_per_edge=np.zeros(0), c1_per_edge=np.zeros(0), edges=ie,
                     scale=scale, gradient_scale=0.0)
-    a, b = tri.edges[ie, 0], tri.edges[ie, 1]
     t = np.linspace(0.0, 1.0, n_samples)
     ne = ie.size
     results = []
     for side in range(2):
-        f = _gather.at(tri.edge_faces, ie, side)
-        fv = _gather.rows(tri.faces, f)  # (ne, 3)
-        la = np.argmax(fv == a[:, None], axis=1)
-        lb = np.argmax(fv == b[:, None], axis=1)
-        bary = np.zeros((ne, n_samples, 3))
-        rows = np.arange(ne)[:, None]
-        bary[rows, np.arange(n_samples)[None, :], la[:, None]] = 1.0 - t
-        bary[rows, np.arange(n_samples)[None, :], lb[:, None]] = t
+        f, bary = edge_samples(tri, ie, t, side=side)
         r = evaluate_derivatives(tri.uv, tri.faces, ctrl, np.repeat(f, n_samples), bary.reshape(-1, 3))
         results.append(r)
     r0, r1 = results
