@@ -14,8 +14,8 @@ from __future__ import annotations
 import importlib
 
 _EXPORTS = {
-    "fit_surface": "pipeline", "FitResult": "pipeline", "FitWeights": "pipeline", "FitError": "pipeline",
-    "DataPoints": "pipeline",
+    "fit_surface": "pipeline", "FitResult": "pipeline", "FitWeights": "weights", "FitError": "errors",
+    "DataPoints": "energy.data",
     "load_mesh": "io", "read_mesh": "io", "MeshData": "io",
 }
 

@@ -16,9 +16,9 @@ its 1-ring neighbours, ...). The re-optimised free points are the non-corner fre
 points whose whole support (the patches they control, DESIGN.md §3 'Local control')
 lies in the region, so *nothing outside the region changes*. The energy is
 restricted to the patches those points control (all other terms are constant), and
-its targets (the local polynomial fits of the data, which move with the data) are
-recomputed only on a halo of ``fit_rings`` more rings, where they equal the global
-fit's targets exactly. Cost: ``O(k^2)`` patches, independent of the mesh size.
+its targets (the local fits of the data, which move with the data) are recomputed
+only on a halo of ``fit_rings - 1`` more rings of vertices around those patches, where
+they equal the global fit's targets exactly (:mod:`trispline.fit.energy.context`). Cost: ``O(k^2)`` patches, independent of the mesh size.
 
 Terms not supported locally: the nonlinear ``angle`` term and extra ``data`` points
 (the fit result does not keep the samples); :class:`LocalRefairer` refuses weights
@@ -26,83 +26,32 @@ that use them.
 """
 from __future__ import annotations
 
-import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
-import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from trispline.spline.index import CORNER, NCTRL, STAR
+from trispline.spline.checks import as_array
 from trispline.spline.edit import EditResult, SplineEditor
 from trispline.spline.errors import InputError
-from trispline.spline.propagation import KIND_CORNER, KIND_FRAME, SplineSpace
+from trispline.spline.index import NCTRL
+from trispline.spline.propagation import KIND_CORNER, SplineSpace
+from trispline.spline.util.timer import StageTimer
 
-from . import energy as en
-from .pipeline import FitWeights
-from .energy.gram import thin_plate_gram
-from .targets import local_rbf_fit
+from .energy import frame_ids, normal_equations, normal_parts, setup_terms, term_context, term_energies
+from .weights import FitWeights
 
 __all__ = ["LocalRefairer", "RefairResult", "fairness_energy"]
 
-def _local_mask() -> np.ndarray:
-    """(21,) patch points carrying the ``local`` term: all but corners and stars."""
-    mask = np.ones(NCTRL, bool)
-    mask[CORNER] = False
-    mask[STAR[STAR >= 0]] = False
-    return mask
+#: The terms a re-fair sees (the quadratic ones without extra samples).
+LOCAL_TERMS = ("bend", "tilt", "local")
 
 
-@dataclass
-class _Terms:
-    """Energy data of some patches and frames (data units)."""
-
-    gram: np.ndarray  # (n, 21, 21) bend weight included
-    point_weight: np.ndarray  # (n, 21) local-term weights
-    target: np.ndarray  # (n, 21, 3)
-    frame_ids: np.ndarray  # (m,) free ids of frame points
-    tilt_target: np.ndarray  # (m, 3)
-    tilt_weight: np.ndarray  # (m,) squared scales
-
-
-def _terms(space: SplineSpace, V: np.ndarray, w: FitWeights, faces: np.ndarray, frame_vertices: np.ndarray,
-           halo_faces: np.ndarray) -> _Terms:
-    """Targets and weights of the patches ``faces`` and of the frames of ``frame_vertices``.
-
-    The local polynomial fits are computed on ``halo_faces`` only; they equal the global
-    fits at every vertex whose ``fit_rings``-ring lies in the halo (vertices are renumbered
-    in increasing order, so the neighbour order, and the truncation, are the global ones).
-    """
-    tri = space.tri
-    hv = np.unique(tri.faces[halo_faces])
-
-    def loc(a):
-        return np.searchsorted(hv, a)
-
-    hfaces = loc(tri.faces[halo_faces])
-    fit = local_rbf_fit(tri.uv[hv], V[hv], hfaces, max_degree=w.fit_degree, rings=w.fit_rings)
-    target = en.blended_targets(tri.uv[hv], loc(tri.faces[faces]), fit.evaluate, power=w.blend_power)
-    areas = tri.areas
-    gram = thin_plate_gram(tri.bary_gradients[faces], areas[faces]) * w.bend
-    pw = np.where(_local_mask()[None, :], (w.local / areas[faces])[:, None], 0.0)
-    # tilt: frame points toward the fitted tangent frame
-    lv = loc(frame_vertices)
-    vert_area = np.bincount(hfaces.ravel(), np.repeat(areas[halo_faces] / 3.0, 3), minlength=hv.size)[lv]
-    d = space.frame_scale[frame_vertices]
-    Vf = V[frame_vertices]
-    grad = fit.grad[lv]  # (m, 3, 2)
-    tilt_target = np.concatenate([Vf + grad[:, :, 0] * (d / 5.0)[:, None], Vf + grad[:, :, 1] * (d / 5.0)[:, None]])
-    tilt_weight = np.tile(w.tilt * vert_area * 25.0 / d**4, 2)
-    frame_ids = np.concatenate([space.frame_free[frame_vertices, 0], space.frame_free[frame_vertices, 1]])
-    return _Terms(gram, pw, target, frame_ids, tilt_target, tilt_weight)
-
-
-def _energy(ctrl: np.ndarray, frames: np.ndarray, t: _Terms) -> dict[str, float]:
-    """``bend``, ``tilt``, ``local`` and ``total`` of patches ``ctrl (n, 21, 3)`` and frame points ``(m, 3)``."""
-    bend = float(np.einsum("fic,fij,fjc->", ctrl, t.gram, ctrl))
-    local = float((t.point_weight[..., None] * (ctrl - t.target) ** 2).sum())
-    tilt = float((t.tilt_weight[:, None] * (frames - t.tilt_target) ** 2).sum())
-    return dict(bend=bend, tilt=tilt, local=local, total=bend + tilt + local)
+def _report(energies: dict[str, float]) -> dict[str, float]:
+    """``bend``, ``tilt``, ``local`` and their ``total``."""
+    out = {k: energies[k] for k in LOCAL_TERMS}
+    out["total"] = sum(out.values())
+    return out
 
 
 def fairness_energy(space: SplineSpace, free: np.ndarray, V: np.ndarray, weights: FitWeights = FitWeights()
@@ -117,10 +66,10 @@ def fairness_energy(space: SplineSpace, free: np.ndarray, V: np.ndarray, weights
     -------
     dict with ``bend``, ``tilt``, ``local``, ``total``
     """
-    allf = np.arange(space.tri.n_faces)
-    t = _terms(space, np.asarray(V, float), weights, allf, np.arange(space.tri.n_vertices), allf)
+    terms = setup_terms(term_context(space, np.asarray(V, float), replace(weights, angle=0.0)))
     free = np.asarray(free, float)
-    return _energy(space.control_points(free), free[t.frame_ids], t)
+    frames = free[frame_ids(space, np.arange(space.tri.n_vertices))]
+    return _report(term_energies(space.control_points(free), frames, terms))
 
 
 @dataclass(frozen=True)
@@ -170,11 +119,7 @@ class LocalRefairer:
             raise InputError(f"local re-fairing supports the quadratic terms only; weights.angle is "
                              f"{weights.angle}, set it to 0")
         nv = editor.space.tri.n_vertices
-        V = np.array(V, dtype=np.float64)
-        if V.shape != (nv, 3):
-            raise InputError(f"V must have shape ({nv}, 3), got {V.shape}")
-        if not np.isfinite(V).all():
-            raise InputError("V has non-finite coordinates")
+        V = np.array(as_array(V, "V", (nv, 3), finite=True))  # a copy: move_vertex keeps it in sync
         self.editor = editor
         self.V = V
         self.weights = weights
@@ -234,59 +179,54 @@ class LocalRefairer:
 
     def refair(self, vertex: int, rings: int | None = None) -> RefairResult:
         """Re-optimise the free points around ``vertex`` with everything else fixed."""
-        clock = [time.perf_counter()]
-        timings: dict[str, float] = {}
-
-        def stage(name):
-            now = time.perf_counter()
-            timings[name] = now - clock[0]
-            clock[0] = now
-
+        clock = StageTimer()
         rings = self.rings if rings is None else self._check_rings(rings)
-        ed, space, w = self.editor, self.editor.space, self.weights
+        ed, space = self.editor, self.editor.space
         v = ed._vertex(vertex)
         ids, region = self.region_free(v, rings)
-        owner, face = ed.supports(ids)
-        faces = np.unique(face)  # patches the re-optimised points control
-        frame_vertices = np.unique((ids[space.free_kind[ids] == KIND_FRAME] - space.tri.n_vertices) // 2)
-        # halo: vertices within fit_rings - 1 of the patches' vertices, and their faces
-        hverts = np.unique(space.tri.faces[faces])
-        halo = ed.vertex_faces(hverts)
-        for _ in range(w.fit_rings - 1):
-            halo = ed.vertex_faces(np.unique(space.tri.faces[halo]))
-        stage("region")
-        t = _terms(space, self.V, w, faces, frame_vertices, halo)
-        stage("targets")
+        faces, frame_vertices, halo = self._support(ids)
+        clock("region")
+        terms = setup_terms(term_context(space, self.V, self.weights, faces=faces, frame_vertices=frame_vertices,
+                                         halo=halo))
+        clock("targets")
         A, c = ed.patch_matrix(faces, ids)  # ctrl = A x + c
-        n, k = faces.size, ids.size
-        fpos = np.searchsorted(ids, t.frame_ids)  # both frames of a vertex share their support
-        if not np.array_equal(ids[np.minimum(fpos, k - 1)], t.frame_ids):
+        fids = frame_ids(space, frame_vertices)
+        fpos = np.searchsorted(ids, fids)
+        if not np.array_equal(ids[np.minimum(fpos, max(ids.size - 1, 0))], fids):
             raise AssertionError("a frame point of the region is missing from the re-optimised set")
-        blk = t.gram.copy()
-        di = np.arange(NCTRL)
-        blk[:, di, di] += t.point_weight
-        # block-diagonal patch matrix (21n, 21n), CSR built directly
-        indptr = np.arange(0, n * NCTRL * NCTRL + 1, NCTRL)
-        indices = np.repeat((np.arange(n) * NCTRL)[:, None] + di[None, :], NCTRL, axis=0).ravel()
-        B = sp.csr_array((blk.ravel(), indices, indptr), shape=(n * NCTRL, n * NCTRL))
-        H = (A.T @ (B @ A)).tocsc()
-        H = H + sp.csc_array((t.tilt_weight, (fpos, fpos)), shape=(k, k))
-        rhs = A.T @ ((t.point_weight[..., None] * t.target).reshape(-1, 3) - B @ c)
-        np.add.at(rhs, fpos, t.tilt_weight[:, None] * t.tilt_target)
-        stage("assemble")
-        if k == 0:
-            x = np.zeros((0, 3))
-        else:
-            try:
-                x = spla.splu(H).solve(np.ascontiguousarray(rhs))
-            except RuntimeError as exc:  # exactly singular: weights that leave points undetermined
-                raise InputError(f"the local fairing problem around vertex {v} is singular ({exc}); "
-                                 f"use positive local and tilt weights") from None
-        stage("solve")
-        x_old = ed.free[ids]
-        before = _energy((A @ x_old + c).reshape(n, NCTRL, 3), ed.free[t.frame_ids], t)
+        H, rhs = normal_equations(A, c, fpos, normal_parts(terms, faces.size, fids.size))
+        clock("assemble")
+        x = self._solve(H, rhs, v)
+        clock("solve")
+        n = faces.size
+        before = _report(term_energies((A @ ed.free[ids] + c).reshape(n, NCTRL, 3), ed.free[fids], terms))
         res = ed.move(ids, x)
-        after = _energy(ed.patch_ctrl(faces), ed.free[t.frame_ids], t)
-        stage("apply")
+        after = _report(term_energies(ed.patch_ctrl(faces), ed.free[fids], terms))
+        clock("apply")
         return RefairResult(vertex=v, rings=rings, free_ids=ids, region=region, faces=res.faces,
-                            energy_before=before, energy_after=after, edit=res, timings=timings)
+                            energy_before=before, energy_after=after, edit=res, timings=clock.timings)
+
+    def _support(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(faces, frame_vertices, halo)`` of free points ``ids``: the patches they control, the
+        vertices whose frames are among them, and those patches' faces grown by ``fit_rings - 1``
+        rings of vertices (where the local fits equal the global ones)."""
+        ed, space = self.editor, self.editor.space
+        _, face = ed.supports(ids)
+        faces = np.unique(face)
+        verts = np.unique(space.tri.faces[faces])
+        frame_vertices = verts[np.isin(space.frame_free[verts, 0], ids)]
+        halo = ed.vertex_faces(verts)
+        for _ in range(self.weights.fit_rings - 1):
+            halo = ed.vertex_faces(np.unique(space.tri.faces[halo]))
+        return faces, frame_vertices, halo
+
+    @staticmethod
+    def _solve(H, rhs: np.ndarray, vertex: int) -> np.ndarray:
+        """``H^{-1} rhs`` by a sparse LU (``(0, 3)`` when nothing is free)."""
+        if H.shape[0] == 0:
+            return np.zeros((0, 3))
+        try:
+            return spla.splu(H.tocsc()).solve(np.ascontiguousarray(rhs))
+        except RuntimeError as exc:  # exactly singular: weights that leave points undetermined
+            raise InputError(f"the local fairing problem around vertex {vertex} is singular ({exc}); "
+                             f"use positive local and tilt weights") from None

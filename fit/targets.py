@@ -1,28 +1,24 @@
-"""Vertex normals and local derivative estimates of mesh data over the uv domain.
+"""What the energy's targets come from: vertex normals and local interpolants of the data over uv.
 
-Two estimators:
+* :func:`area_weighted_normals` -- the mesh's area-weighted face normals, summed per
+  vertex (a first-order estimate of the tangent plane; the fallback of the angle term).
+* :func:`local_rbf_fit` -- for each vertex a polyharmonic spline interpolant of the data
+  of its k-ring (kernel chosen per vertex by leave-one-out error): its gradient sets the
+  ``tilt`` targets, its values the ``local`` targets, :func:`fitted_normals` the ``angle``
+  targets.
 
-* :func:`area_weighted_normals` -- the mesh's area-weighted face normals, summed
-  per vertex (a first-order estimate of the tangent plane).
-* :func:`local_polynomial_fit` -- for each vertex ``v`` a weighted least-squares
-  polynomial (degree 2 or 3) in ``uv - uv_v`` fitted to the data of the vertex's
-  k-ring that passes exactly through the data at ``v`` (as in Akima's and Renka's
-  derivative estimates for scattered-data interpolation). It gives the gradient
-  ``(d, 2)`` and the Hessian ``(d, 2, 2)`` of each data coordinate with respect to
-  uv, i.e. the data's first and second fundamental quantities at every vertex.
-
-Every function is vectorised over all vertices; neighbourhoods are padded to a
-fixed width (the nearest ``max_neighbours`` in uv are kept).
+Every function is vectorised over all vertices; neighbourhoods are padded to a fixed
+width (the nearest ``max_neighbours`` in uv are kept).
 """
 from __future__ import annotations
-
-import os
-from concurrent.futures import ThreadPoolExecutor
 
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+
+from trispline.spline.tolerances import DEGENERATE_TANGENT_RTOL, TINY
+from trispline.spline.util.parallel import PARALLEL_MIN, Workers
 
 #: Neighbourhoods are truncated to this many nearest vertices.
 MAX_NEIGHBOURS = 32
@@ -93,133 +89,7 @@ def padded_neighbours(
     return nbr, count
 
 
-def _monomials(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
-    """Monomials without the constant: u, v, u^2, uv, v^2 (, u^3, u^2 v, u v^2, v^3)."""
-    cols = [x, y, x * x, x * y, y * y]
-    if degree >= 3:
-        cols += [x**3, x * x * y, x * y * y, y**3]
-    return np.stack(cols, axis=-1)
-
-
-@dataclass(frozen=True)
-class LocalFit:
-    """Derivative estimates at every vertex.
-
-    Attributes
-    ----------
-    grad : (nv, d, 2) first partials ``(d/du, d/dv)`` of each data coordinate
-    hess : (nv, d, 2, 2) second partials
-    scale : (nv,) the local length (mean distance to the 1-ring) used to scale the fit
-    degree : (nv,) degree actually used at each vertex (lower where too few neighbours)
-    coef : (nv, m, d) coefficients of the scaled monomials (see :func:`_monomials`)
-    origin : (nv, 2) uv of each vertex
-    value : (nv, d) data at each vertex
-    """
-
-    grad: np.ndarray
-    hess: np.ndarray
-    scale: np.ndarray
-    degree: np.ndarray
-    coef: np.ndarray
-    origin: np.ndarray
-    value: np.ndarray
-
-    def evaluate(self, vertex: np.ndarray, points: np.ndarray) -> np.ndarray:
-        """Value of vertex ``vertex[i]``'s polynomial at ``points[i]``: ``(n, d)``
-        (grouped form: ``points (m, p, 2)``, ``vertex (m,)`` gives ``(m, p, d)``)."""
-        vertex = np.asarray(vertex, np.int64)
-        points = np.asarray(points, float)
-        if points.ndim == 3:
-            m, p = points.shape[:2]
-            return self.evaluate(np.repeat(vertex, p), points.reshape(-1, 2)).reshape(m, p, -1)
-        X = (points - self.origin[vertex]) / self.scale[vertex, None]
-        A = _monomials(X[:, 0], X[:, 1], 3 if self.coef.shape[1] > 5 else 2)
-        return self.value[vertex] + np.einsum("nm,nmd->nd", A, self.coef[vertex])
-
-
-def local_polynomial_fit(
-    uv: np.ndarray,
-    values: np.ndarray,
-    faces: np.ndarray,
-    *,
-    degree: int = 3,
-    rings: int = 3,
-    weight_power: float = 4.0,
-    ridge: float = 1e-12,
-) -> LocalFit:
-    """Weighted least-squares polynomial through each vertex's data, over its k-ring.
-
-    Parameters
-    ----------
-    uv : (nv, 2) domain points
-    values : (nv, d) data (mesh vertices, or heights)
-    faces : (nf, 3)
-    degree : 2 or 3
-    rings : neighbourhood size in edges
-    weight_power : weights ``(s / r) ** weight_power`` (``r`` uv distance, ``s`` local scale)
-    ridge : Tikhonov damping of the higher-order coefficients, relative to the normal matrix
-
-    Returns
-    -------
-    LocalFit
-
-    Notes
-    -----
-    The polynomial passes through the data at ``v`` (the constant term is the data),
-    so linear data give exact gradients and zero Hessians, and quadratic data exact
-    Hessians (cubic data too with ``degree=3``), wherever the neighbourhood is unisolvent.
-    Vertices with fewer than ``1.5 m`` neighbours (``m`` coefficients) drop to degree 2,
-    then to degree 1.
-    """
-    if degree not in (2, 3):
-        raise ValueError(f"degree must be 2 or 3, got {degree}")
-    uv = np.asarray(uv, float)
-    vals = np.asarray(values, float)
-    if vals.ndim == 1:
-        vals = vals[:, None]
-    nv, d = vals.shape
-    nbr, count = padded_neighbours(uv, faces, rings)
-    valid = nbr >= 0
-    nb = np.where(valid, nbr, 0)
-    # local scale: mean distance to the 1-ring
-    R1 = vertex_rings(faces, nv, 1)
-    r1 = np.repeat(np.arange(nv), np.diff(R1.indptr))
-    l1 = np.linalg.norm(uv[R1.indices] - uv[r1], axis=1)
-    scale = np.bincount(r1, l1, minlength=nv) / np.maximum(np.diff(R1.indptr), 1)
-    scale = np.where(scale > 0, scale, 1.0)
-    X = (uv[nb] - uv[:, None, :]) / scale[:, None, None]  # (nv, K, 2)
-    Y = vals[nb] - vals[:, None, :]  # (nv, K, d)
-    r = np.linalg.norm(X, axis=-1)
-    w = np.where(valid, 1.0 / np.maximum(r, 1e-9) ** weight_power, 0.0)
-    A = _monomials(X[..., 0], X[..., 1], degree)  # (nv, K, m)
-    m = A.shape[-1]
-    # per-vertex degree by neighbour count: mask unusable columns
-    used_deg = np.full(nv, degree)
-    used_deg[count < 13] = min(degree, 2)
-    used_deg[count < 8] = 1
-    colmask = np.ones((nv, m), bool)
-    colmask[used_deg < 3, 5:] = False
-    colmask[used_deg < 2, 2:] = False
-    A = A * colmask[:, None, :]
-    Aw = A * w[..., None]
-    N = np.einsum("vki,vkj->vij", Aw, A)
-    rhs = np.einsum("vki,vkd->vid", Aw, Y)
-    trace = np.einsum("vii->v", N) / m
-    damp = np.zeros((nv, m))
-    damp[:, 2:] = ridge  # do not damp the gradient
-    damp = damp * trace[:, None] + (~colmask) * 1.0
-    N = N + damp[:, :, None] * np.eye(m)[None]
-    coef = np.linalg.solve(N, rhs)  # (nv, m, d)
-    s = scale[:, None]
-    grad = np.stack([coef[:, 0, :], coef[:, 1, :]], axis=-1) / s[..., None]
-    huu = 2 * coef[:, 2, :]
-    huv = coef[:, 3, :]
-    hvv = 2 * coef[:, 4, :]
-    hess = np.stack([np.stack([huu, huv], -1), np.stack([huv, hvv], -1)], -2) / (s**2)[..., None, None]
-    return LocalFit(grad=grad, hess=hess, scale=scale, degree=used_deg, coef=coef, origin=uv, value=vals)
-
-
-def fitted_normals(fit: LocalFit, reference: np.ndarray | None = None) -> np.ndarray:
+def fitted_normals(fit: "LocalRBFFit", reference: np.ndarray | None = None) -> np.ndarray:
     """Unit normals ``(nv, 3)`` of the fitted tangent planes ``grad_u x grad_v``.
 
     ``reference`` (``(nv, 3)``, e.g. area-weighted normals) replaces degenerate
@@ -229,7 +99,7 @@ def fitted_normals(fit: LocalFit, reference: np.ndarray | None = None) -> np.nda
     length = np.linalg.norm(n, axis=1, keepdims=True)
     out = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
     if reference is not None:
-        bad = (length[:, 0] <= 1e-12 * np.maximum(np.abs(fit.grad).max(axis=(1, 2)) ** 2, 1e-300))
+        bad = length[:, 0] <= DEGENERATE_TANGENT_RTOL * np.maximum(np.abs(fit.grad).max(axis=(1, 2)) ** 2, TINY)
         out[bad] = reference[bad]
     return out
 
@@ -327,6 +197,88 @@ def _solve_batch(A: np.ndarray, B: np.ndarray) -> np.ndarray:
         return out
 
 
+def _local_scale(uv: np.ndarray, faces: np.ndarray, nv: int) -> np.ndarray:
+    """``(nv,)`` mean uv distance to the 1-ring (1 where a vertex has none)."""
+    R1 = vertex_rings(faces, nv, 1)
+    r1 = np.repeat(np.arange(nv), np.diff(R1.indptr))
+    l1 = np.linalg.norm(uv[R1.indices] - uv[r1], axis=1)
+    scale = np.bincount(r1, l1, minlength=nv) / np.maximum(np.diff(R1.indptr), 1)
+    return np.where(scale > 0, scale, 1.0)
+
+
+def _linear_trend(X: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """``(nv, 2, d)`` least-squares slopes through each vertex of ``Y (nv, K, d)`` over ``X (nv, K, 2)``."""
+    G = np.einsum("vki,vkj->vij", X, X)
+    G += (1e-12 * np.einsum("vii->v", G) + TINY)[:, None, None] * np.eye(2)
+    return np.linalg.solve(G, np.einsum("vki,vkd->vid", X, Y))
+
+
+@dataclass
+class _KernelFits:
+    """The kernel choice and coefficients of every vertex, filled chunk by chunk (disjoint rows)."""
+
+    best: np.ndarray  # (nv,) leave-one-out score of the chosen kernel (inf: none)
+    power: np.ndarray  # (nv,) chosen power (0: none)
+    lam: np.ndarray  # (nv, K, d)
+    coef: np.ndarray  # (nv, _NPOLY, d)
+
+
+def _fit_chunk(out: _KernelFits, sl: np.ndarray, X: np.ndarray, Y: np.ndarray, valid: np.ndarray,
+               npts: np.ndarray, kernels: list[tuple[int, int]], nloo: int) -> None:
+    """Interpolate vertices ``sl`` with each kernel; keep the one with the smallest leave-one-out error.
+
+    ``X (nv, K, 2)`` scaled centres, ``Y (nv, K, d)`` detrended data, ``valid (nv, K)``,
+    ``npts (nv,)`` points per vertex. Rippa: ``e_k = c_k / (A^-1)_kk`` from one solve with
+    the data and the first ``nloo`` unit vectors as right-hand sides.
+    """
+    K, d = X.shape[1], Y.shape[2]
+    Xc, vc = X[sl], valid[sl]
+    D = Xc[:, :, None, :] - Xc[:, None, :, :]
+    R2 = np.einsum("vkli,vkli->vkl", D, D)
+    pair = vc[:, :, None] & vc[:, None, :]
+    P0 = _poly3(Xc[..., 0], Xc[..., 1]) * vc[..., None]
+    B = np.zeros((sl.size, K + _NPOLY, d + nloo))
+    B[:, :K, :d] = Y[sl]
+    B[:, np.arange(nloo), d + np.arange(nloo)] = 1.0
+    diag = np.arange(K + _NPOLY)
+    for p, q in kernels:
+        m = (q + 1) * (q + 2) // 2
+        ok = npts[sl] >= max(2 * m, 3)
+        if not ok.any():
+            continue
+        idx = sl[ok]
+        A = np.zeros((idx.size, K + _NPOLY, K + _NPOLY))
+        A[:, :K, :K] = np.where(pair[ok], _kernel(R2[ok], p), 0.0)
+        P = P0[ok].copy()
+        P[..., m:] = 0.0
+        A[:, :K, K:] = P
+        A[:, K:, :K] = P.transpose(0, 2, 1)
+        A[:, diag, diag] += np.concatenate(
+            [~vc[ok], np.broadcast_to(np.arange(_NPOLY) >= m, (idx.size, _NPOLY))], axis=1)
+        S = _solve_batch(A, B[ok])
+        c = S[:, :, :d]
+        dg = S[:, np.arange(nloo), d + np.arange(nloo)]  # (A^-1)_kk
+        e = c[:, :nloo, :] / np.where(vc[ok][:, :nloo], dg, 1.0)[..., None]
+        score = np.sqrt(np.sum(np.where(vc[ok][:, :nloo, None], e * e, 0.0), axis=(1, 2)))
+        score = np.where(np.isfinite(score) & np.isfinite(c).all(axis=(1, 2)), score, np.inf)
+        take = score < out.best[idx]
+        t = idx[take]
+        out.best[t] = score[take]
+        out.power[t] = p
+        out.lam[t] = c[take, :K]
+        out.coef[t] = c[take, K:]
+
+
+def _vertex_gradient(X: np.ndarray, fits: _KernelFits, slope: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """``(nv, d, 2)`` gradient at each vertex: trend + kernel terms + linear coefficients, in uv units."""
+    r2 = np.einsum("vki,vki->vk", X, X)
+    pw = fits.power[:, None]
+    # d/dx of |x - x_j|^p at x = 0 is -p r_j^(p-2) x_j
+    dphi = -pw * np.sqrt(r2) * np.where(pw == 5, r2, np.where(pw == 7, r2 * r2, 1.0))
+    return (slope.transpose(0, 2, 1) + np.einsum("vk,vki,vkd->vdi", dphi, X, fits.lam)
+            + fits.coef[:, 1:3, :].transpose(0, 2, 1)) / scale[:, None, None]
+
+
 def local_rbf_fit(
     uv: np.ndarray,
     values: np.ndarray,
@@ -374,11 +326,7 @@ def local_rbf_fit(
         vals = vals[:, None]
     nv, d = vals.shape
     nbr, count = padded_neighbours(uv, faces, rings, max_neighbours)
-    R1 = vertex_rings(faces, nv, 1)
-    r1 = np.repeat(np.arange(nv), np.diff(R1.indptr))
-    l1 = np.linalg.norm(uv[R1.indices] - uv[r1], axis=1)
-    scale = np.bincount(r1, l1, minlength=nv) / np.maximum(np.diff(R1.indptr), 1)
-    scale = np.where(scale > 0, scale, 1.0)
+    scale = _local_scale(uv, faces, nv)
     valid = np.concatenate([np.ones((nv, 1), bool), nbr >= 0], axis=1)  # the vertex first
     nb = np.concatenate([np.arange(nv)[:, None], np.where(nbr >= 0, nbr, 0)], axis=1)
     K = nb.shape[1]
@@ -386,76 +334,17 @@ def local_rbf_fit(
     X[~valid] = 0.0
     Y = vals[nb] - vals[:, None, :]
     Y[~valid] = 0.0
-    # linear trend through v (least squares, unweighted)
-    G = np.einsum("vki,vkj->vij", X, X)
-    G += (1e-12 * np.einsum("vii->v", G) + 1e-300)[:, None, None] * np.eye(2)
-    slope = np.linalg.solve(G, np.einsum("vki,vkd->vid", X, Y))  # (nv, 2, d)
+    slope = _linear_trend(X, Y)
     Y = Y - np.einsum("vki,vid->vkd", X, slope)
 
     kernels = [(p, q) for p, q in RBF_KERNELS if q <= max_degree]
     nloo = min(loo_points, K)
-    best = np.full(nv, np.inf)
-    power = np.zeros(nv, np.int64)
-    lam = np.zeros((nv, K, d))
-    coef = np.zeros((nv, _NPOLY, d))
-    npts = count + 1
-
-    def fit_chunk(s: int) -> None:
-        """Fit the vertices ``[s, s + RBF_CHUNK)``; chunks write disjoint rows."""
-        sl = np.arange(s, min(s + RBF_CHUNK, nv))
-        Xc, vc = X[sl], valid[sl]
-        D = Xc[:, :, None, :] - Xc[:, None, :, :]
-        R2 = np.einsum("vkli,vkli->vkl", D, D)
-        pair = vc[:, :, None] & vc[:, None, :]
-        P0 = _poly3(Xc[..., 0], Xc[..., 1]) * vc[..., None]
-        B = np.zeros((sl.size, K + _NPOLY, d + nloo))
-        B[:, :K, :d] = Y[sl]
-        B[:, np.arange(nloo), d + np.arange(nloo)] = 1.0
-        diag = np.arange(K + _NPOLY)
-        for p, q in kernels:
-            m = (q + 1) * (q + 2) // 2
-            ok = npts[sl] >= max(2 * m, 3)
-            if not ok.any():
-                continue
-            idx = sl[ok]
-            A = np.zeros((idx.size, K + _NPOLY, K + _NPOLY))
-            A[:, :K, :K] = np.where(pair[ok], _kernel(R2[ok], p), 0.0)
-            P = P0[ok].copy()
-            P[..., m:] = 0.0
-            A[:, :K, K:] = P
-            A[:, K:, :K] = P.transpose(0, 2, 1)
-            A[:, diag, diag] += np.concatenate(
-                [~vc[ok], np.broadcast_to(np.arange(_NPOLY) >= m, (idx.size, _NPOLY))], axis=1)
-            S = _solve_batch(A, B[ok])
-            c = S[:, :, :d]
-            dg = S[:, np.arange(nloo), d + np.arange(nloo)]  # (A^-1)_kk
-            e = c[:, :nloo, :] / np.where(vc[ok][:, :nloo], dg, 1.0)[..., None]
-            score = np.sqrt(np.sum(np.where(vc[ok][:, :nloo, None], e * e, 0.0), axis=(1, 2)))
-            score = np.where(np.isfinite(score) & np.isfinite(c).all(axis=(1, 2)), score, np.inf)
-            take = score < best[idx]
-            t = idx[take]
-            best[t] = score[take]
-            power[t] = p
-            lam[t] = c[take, :K]
-            coef[t] = c[take, K:]
-
-    # numpy's batched solves and elementwise kernels release the GIL: one thread per core
-    starts = range(0, nv, RBF_CHUNK)
-    workers = min(os.cpu_count() or 1, len(starts))
-    if workers > 1:
-        with ThreadPoolExecutor(workers) as pool:
-            for fut in [pool.submit(fit_chunk, s0) for s0 in starts]:
-                fut.result()
-    else:
-        for s0 in starts:
-            fit_chunk(s0)
-    # gradient at the vertex: trend + sum_j lam_j p r_j^(p-2) (0 - x_j) + linear coefficients
-    r2 = np.einsum("vki,vki->vk", X, X)
-    pw = power[:, None]
-    dphi = -pw * np.sqrt(r2) * np.where(pw == 5, r2, np.where(pw == 7, r2 * r2, 1.0))
-    # (nv, K): d/dx of r^p at 0 is -p r^(p-2) x_j
-    grad = (slope.transpose(0, 2, 1) + np.einsum("vk,vki,vkd->vdi", dphi, X, lam)
-            + coef[:, 1:3, :].transpose(0, 2, 1)) / scale[:, None, None]
-    loo = np.where(np.isfinite(best), best / np.sqrt(d * np.maximum(nloo, 1)), 0.0)
-    return LocalRBFFit(grad=grad, power=power, loo=loo, scale=scale, origin=uv, value=vals, centres=X,
-                       lam=lam, coef=coef, slope=slope)
+    fits = _KernelFits(best=np.full(nv, np.inf), power=np.zeros(nv, np.int64), lam=np.zeros((nv, K, d)),
+                       coef=np.zeros((nv, _NPOLY, d)))
+    # a chunk is seconds of batched solves (numpy releases the GIL): a thread each from two chunks on
+    with Workers(nv * (PARALLEL_MIN // RBF_CHUNK)) as work:
+        work.map(lambda lo, hi: _fit_chunk(fits, np.arange(lo, hi), X, Y, valid, count + 1, kernels, nloo),
+                 nv, RBF_CHUNK)
+    loo = np.where(np.isfinite(fits.best), fits.best / np.sqrt(d * np.maximum(nloo, 1)), 0.0)
+    return LocalRBFFit(grad=_vertex_gradient(X, fits, slope, scale), power=fits.power, loo=loo, scale=scale,
+                       origin=uv, value=vals, centres=X, lam=fits.lam, coef=fits.coef, slope=slope)

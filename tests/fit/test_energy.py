@@ -1,4 +1,4 @@
-"""Energy building blocks: Gram matrices, residual quadrature, derivative estimates, solver plumbing."""
+"""Energy building blocks: Gram matrices, residual quadrature, one definition per term, normals, solver plumbing."""
 from __future__ import annotations
 
 import jax
@@ -13,11 +13,14 @@ jax.config.update("jax_enable_x64", True)
 
 from trispline.fit import energy as en  # noqa: E402
 from trispline.fit.datasets.franke import RENKA_BROWN, sample_points  # noqa: E402
-from trispline.fit.energy.gram import thin_plate_gram, triangle_quadrature  # noqa: E402
-from trispline.fit.targets import area_weighted_normals, fitted_normals, local_polynomial_fit  # noqa: E402
+from trispline.fit.energy import bend  # noqa: E402
+from trispline.fit.energy.quadrature import pair_hessians, triangle_quadrature  # noqa: E402
+from trispline.fit.targets import area_weighted_normals, fitted_normals, local_rbf_fit  # noqa: E402
+from trispline.fit.weights import TERM_WEIGHTS, FitWeights  # noqa: E402
 from trispline.fit.solve import FactorSolver, SparseCholesky  # noqa: E402
 from trispline.spline.testing.domains import random_delaunay  # noqa: E402
 from trispline.spline.polynomial import polynomial_control_net  # noqa: E402
+from trispline.spline.propagation import build_space  # noqa: E402
 from trispline.spline.topology import Triangulation  # noqa: E402
 
 
@@ -39,7 +42,7 @@ def test_quadrature_exact_degree_6():
 
 
 def test_gram_exact_on_polynomials(tri):
-    G = thin_plate_gram(tri.bary_gradients, tri.areas)
+    G = en.thin_plate_gram(tri.bary_gradients, tri.areas)
     func = lambda p: np.column_stack([p[:, 0] ** 2, p[:, 0] * p[:, 1], 3 - p[:, 0] + 2 * p[:, 1]])  # noqa: E731
     c = polynomial_control_net(tri.uv, tri.faces, func)
     E = np.einsum("fic,fij,fjc->fc", c, G, c)
@@ -56,37 +59,46 @@ def test_gram_exact_on_polynomials(tri):
 def test_residual_quadrature_matches_gram(tri):
     rng = np.random.default_rng(0)
     ctrl = rng.standard_normal((tri.n_faces, 21, 3))
-    D, sqw = en.bend_tables()
-    args = dict(bend_D=jnp.asarray(D), bend_W=jnp.asarray(en.bend_weights(tri.bary_gradients, tri.areas, 2.5)),
-                bend_sqw=jnp.asarray(sqw))
-    r = np.asarray(en.bend_residual(jnp.asarray(ctrl), args))
-    G = thin_plate_gram(tri.bary_gradients, tri.areas)
+    D, sqw = pair_hessians()
+    a = dict(D=D, W=en.bend_weights(tri.bary_gradients, tri.areas, 2.5), sqw=sqw)
+    r = np.asarray(bend.residual(jnp.asarray(ctrl), None, jax.tree_util.tree_map(jnp.asarray, a)))
+    G = en.thin_plate_gram(tri.bary_gradients, tri.areas)
     E = np.einsum("fic,fij,fjc->", ctrl, G, ctrl)
     assert np.isclose((r**2).sum(), 2.5 * E, rtol=1e-12)
+    # the same definition on the host (numpy) gives the same residual
+    np.testing.assert_allclose(bend.residual(ctrl, None, a), r, rtol=0, atol=1e-12 * np.abs(r).max())
 
 
-def test_local_fit_reproduces_cubics():
-    uv, f = random_delaunay(150, seed=2)
-    x, y = uv.T
-    vals = np.column_stack([1 + x**3 - 2 * x * y * y + x * y, 2 - x + 3 * y])
-    fit = local_polynomial_fit(uv, vals, f, degree=3)
-    g = np.stack([3 * x**2 - 2 * y * y + y, -4 * x * y + x], -1)
-    H = np.array([[6 * x, 1 - 4 * y], [1 - 4 * y, -4 * x]]).transpose(2, 0, 1)
-    full = fit.degree == 3
-    assert full.mean() > 0.9
-    np.testing.assert_allclose(fit.grad[full, 0], g[full], atol=1e-9)
-    np.testing.assert_allclose(fit.hess[full, 0], H[full], atol=1e-7)
-    # linear data exact everywhere, whatever degree was used
-    np.testing.assert_allclose(fit.grad[:, 1], np.tile([-1.0, 3.0], (len(x), 1)), atol=1e-10)
-    np.testing.assert_allclose(fit.hess[:, 1], 0.0, atol=1e-8)
-    # the polynomial passes through the vertex data
-    np.testing.assert_allclose(fit.evaluate(np.arange(len(x)), uv), vals, atol=1e-12)
+def test_term_registry_follows_the_weights():
+    assert en.TERMS == TERM_WEIGHTS
+    for m in en.MODULES:
+        assert m.LINEAR == hasattr(m, "add_normal"), m.NAME
 
 
-def test_local_fit_rejects_bad_degree():
-    uv, f = random_delaunay(20, seed=0)
-    with pytest.raises(ValueError, match="degree"):
-        local_polynomial_fit(uv, uv[:, 0], f, degree=4)
+@pytest.mark.parametrize("weights", [FitWeights(), FitWeights(bend=0.5, tilt=0.0, local=7.0, data=3.0)])
+def test_normal_equations_are_the_residuals_jacobian(weights):
+    """H = J^T J and rhs = -J^T r(0) of the linear terms' JAX residuals (coordinate by coordinate)."""
+    uv, f = random_delaunay(25, seed=4)
+    V = np.column_stack([uv, np.sin(2 * uv[:, 0]) + uv[:, 1] ** 2])
+    space = build_space(uv, f)
+    rng = np.random.default_rng(2)
+    face = rng.integers(0, space.tri.n_faces, 30)
+    dp = en.DataPoints(face, rng.dirichlet([1, 1, 1], 30), rng.normal(size=(30, 3)))
+    prob = en.setup_problem(V, space, weights, dp)
+    k = prob.free_r.size
+
+    def linear(x):
+        res = en.residuals(x, prob.args)
+        return jnp.concatenate([res[m.NAME].reshape(-1, 3) for m in en.MODULES if m.LINEAR])
+
+    x0 = jnp.zeros((k, 3))
+    J = np.asarray(jax.jacfwd(linear)(x0))  # (rows, 3, k, 3): separable, the same in each coordinate
+    for c in range(3):
+        Jc = J[:, c, :, c]
+        np.testing.assert_allclose(prob.H.toarray(), Jc.T @ Jc, rtol=0, atol=1e-10 * np.abs(prob.H).max())
+        np.testing.assert_allclose(prob.rhs[:, c], -Jc.T @ np.asarray(linear(x0))[:, c], rtol=0,
+                                   atol=1e-10 * np.abs(prob.rhs).max())
+    np.testing.assert_allclose(J[:, 0, :, 1], 0.0, atol=0)
 
 
 def test_normals_of_a_tilted_plane():
@@ -96,7 +108,7 @@ def test_normals_of_a_tilted_plane():
     n_exact = np.cross(A[:, 0], A[:, 1])
     n_exact /= np.linalg.norm(n_exact)
     np.testing.assert_allclose(area_weighted_normals(V, f), np.tile(n_exact, (len(V), 1)), atol=1e-12)
-    fit = local_polynomial_fit(uv, V, f)
+    fit = local_rbf_fit(uv, V, f)
     np.testing.assert_allclose(fitted_normals(fit), np.tile(n_exact, (len(V), 1)), atol=1e-10)
 
 

@@ -128,14 +128,13 @@ def _angle_energy_of(base: FitResult, ref: FitResult) -> float:
     import jax.numpy as jnp
 
     from trispline.fit import energy as en
-    from trispline.fit.pipeline import _setup
 
     V = base.free[base.space.corner_free]
     centre = 0.5 * (V.min(0) + V.max(0))
     size = float(np.ptp(V, axis=0).max())
-    prob = _setup((V - centre) / size, base.space, FitWeights(angle=1.0), None)
+    prob = en.setup_problem((V - centre) / size, base.space, FitWeights(angle=1.0))
     x = (base.free[prob.free_r] - centre) / size
-    return float(jnp.sum(en.angle_residual(jnp.asarray(x), prob.args) ** 2))
+    return float(jnp.sum(en.residuals(jnp.asarray(x), prob.args)["angle"] ** 2))
 
 
 def test_throw_false_returns_unconverged():

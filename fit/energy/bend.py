@@ -1,0 +1,72 @@
+"""``bend``: the thin-plate energy ``int |F_uu|^2 + 2|F_uv|^2 + |F_vv|^2`` over the uv domain, exact per patch.
+
+Residual form: ``r = sqrt(w_q) [F_uu, sqrt(2) F_uv, F_vv] * sqrt(weight area)`` at the
+quadrature points (:mod:`.quadrature`), so ``|r|^2`` is the weighted energy exactly. The
+per-patch coefficients ``W (F, 6, 3)`` (:func:`bend_weights`) turn the pair partials into
+the scaled uv second derivatives; the Gram matrix ``r^T r = ctrl^T G ctrl`` comes from the
+same ``W``, so the residual and the normal matrix cannot disagree.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from trispline.spline.index import NCTRL
+
+from .arrays import array_module
+from .quadrature import PAIRS, pair_hessians, pair_moments
+
+NAME = "bend"
+LINEAR = True
+#: The energy scales like (data size)**2.
+SCALE_EXPONENT = 2
+
+
+def bend_weights(bary_grad: np.ndarray, areas: np.ndarray, weight: float) -> np.ndarray:
+    """``(F, 6, 3)`` coefficients turning pair derivatives ``D_P F`` into sqrt-weighted
+    ``F_uu, sqrt(2) F_uv, F_vv`` (multiplied by ``sqrt(weight * area)``).
+
+    Parameters
+    ----------
+    bary_grad : (F, 3, 2) barycentric gradients, areas : (F,) uv areas
+    """
+    g = np.asarray(bary_grad, float)
+    a, b = PAIRS[:, 0], PAIRS[:, 1]
+    mult = np.where(a == b, 1.0, 2.0)  # an off-diagonal pair stands for D_ab and D_ba
+    uu = g[:, a, 0] * g[:, b, 0]
+    uv = 0.5 * (g[:, a, 0] * g[:, b, 1] + g[:, b, 0] * g[:, a, 1]) * np.sqrt(2.0)
+    vv = g[:, a, 1] * g[:, b, 1]
+    W = np.stack([uu, uv, vv], axis=-1) * mult[None, :, None]
+    return W * np.sqrt(weight * np.asarray(areas, float))[:, None, None]
+
+
+def gram(W: np.ndarray) -> np.ndarray:
+    """``(F, 21, 21)`` Gram matrices ``G`` with ``|residual|^2 = ctrl^T G ctrl`` for ``W (F, 6, 3)``."""
+    C = np.einsum("fps,frs->fpr", W, W)  # (F, 6, 6)
+    return (C.reshape(-1, 36) @ pair_moments().reshape(36, NCTRL * NCTRL)).reshape(-1, NCTRL, NCTRL)
+
+
+def thin_plate_gram(bary_grad: np.ndarray, areas: np.ndarray) -> np.ndarray:
+    """Exact thin-plate Gram matrix ``(F, 21, 21)`` of every patch (unit weight).
+
+    Symmetric positive semidefinite with the linear functions (and nothing else) as null
+    space: ``ctrl_f^T G_f ctrl_f`` is the patch's thin-plate energy.
+    """
+    return gram(bend_weights(bary_grad, areas, 1.0))
+
+
+def setup(ctx) -> dict[str, np.ndarray]:
+    """``D (Q, 6, 21)``, ``sqw (Q,)`` (quadrature tables) and ``W (n, 6, 3)`` of the patches."""
+    D, sqw = pair_hessians()
+    return dict(D=D, sqw=sqw, W=bend_weights(ctx.bary_gradients, ctx.areas, ctx.weights.bend))
+
+
+def residual(ctrl, frames, a: dict):
+    """``(n, Q, 3, d)``: the scaled ``F_uu, sqrt2 F_uv, F_vv`` of patches ``ctrl (n, 21, d)``."""
+    xp = array_module(ctrl)
+    d2 = xp.einsum("qpi,fic->fqpc", a["D"], ctrl)
+    return xp.einsum("fqpc,fps,q->fqsc", d2, a["W"], a["sqw"])
+
+
+def add_normal(parts, a: dict) -> None:
+    """Adds the Gram matrices to the patch blocks (no target: nothing on the right-hand side)."""
+    parts.blocks += gram(a["W"])

@@ -1,0 +1,96 @@
+"""What the energy terms are built from: some patches, the frames of some vertices, and the data's local fits.
+
+The global fit covers every patch and vertex; the local re-fair a few patches, the frames
+they contain, and the local fits of a halo around them. Vertices are renumbered to the
+halo in increasing order, so the neighbour order of the local fits, their truncation and
+hence their values are the global ones wherever a vertex's ``fit_rings``-ring lies in
+the halo.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from trispline.spline.propagation import SplineSpace
+
+from ..targets import LocalRBFFit, local_rbf_fit
+from ..weights import FitWeights
+from .data import DataPoints
+
+__all__ = ["TermContext", "term_context", "frame_ids", "vertex_areas"]
+
+
+@dataclass(frozen=True)
+class TermContext:
+    """The inputs of every term's ``setup`` (vertex ids in halo numbering, ``h`` halo vertices).
+
+    Attributes
+    ----------
+    weights : FitWeights
+    areas : (n,) uv areas of the patches, bary_gradients : (n, 3, 2) their barycentric gradients
+    faces : (n, 3) the patches' vertices
+    uv : (h, 2), V : (h, 3) the halo vertices' domain points and data
+    halo_faces : (nh, 3) the halo's faces
+    fit : LocalRBFFit of the halo's data
+    frame_vertices : (m,) vertices whose frames the terms see
+    frame_scale : (m,) their frame scales ``d_v``; vertex_area : (m,) a third of their incident uv areas
+    data_points : DataPoints on the patches (face ids into the n patches), or None
+    sample_weight : ``n_vertices / domain area`` of the whole triangulation (``1 / h^2`` of the data term)
+    """
+
+    weights: FitWeights
+    areas: np.ndarray
+    bary_gradients: np.ndarray
+    faces: np.ndarray
+    uv: np.ndarray
+    V: np.ndarray
+    halo_faces: np.ndarray
+    fit: LocalRBFFit
+    frame_vertices: np.ndarray
+    frame_scale: np.ndarray
+    vertex_area: np.ndarray
+    data_points: DataPoints | None
+    sample_weight: float
+
+
+def vertex_areas(faces: np.ndarray, areas: np.ndarray, n_vertices: int) -> np.ndarray:
+    """``(n_vertices,)``: a third of the uv area of each vertex's incident faces ``faces (nf, 3)``."""
+    return np.bincount(faces.ravel(), np.repeat(areas / 3.0, 3), minlength=n_vertices)
+
+
+def frame_ids(space: SplineSpace, vertices: np.ndarray) -> np.ndarray:
+    """``(2 m,)`` free ids of the frame points of ``vertices (m,)``: all ``u`` frames, then all ``v`` frames."""
+    return np.concatenate([space.frame_free[vertices, 0], space.frame_free[vertices, 1]])
+
+
+def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, faces: np.ndarray | None = None,
+                 frame_vertices: np.ndarray | None = None, halo: np.ndarray | None = None,
+                 data_points: DataPoints | None = None) -> TermContext:
+    """The context of patches ``faces`` and the frames of ``frame_vertices`` (default: all).
+
+    Parameters
+    ----------
+    space : SplineSpace, V : (nv, 3) data vertices
+    faces : (n,) patches; frame_vertices : (m,) vertices (sorted)
+    halo : (nh,) faces whose data the local fits see; it must hold every face around the
+        frame vertices and the patches' vertices (default: all faces)
+    """
+    tri = space.tri
+    if halo is None:
+        hv, hfaces, renumber = np.arange(tri.n_vertices), tri.faces, (lambda a: a)
+    else:
+        hv = np.unique(tri.faces[halo])
+        hfaces = np.searchsorted(hv, tri.faces[halo])
+        renumber = lambda a: np.searchsorted(hv, a)  # noqa: E731
+    faces = np.arange(tri.n_faces) if faces is None else np.asarray(faces, np.int64)
+    fv = np.arange(tri.n_vertices) if frame_vertices is None else np.asarray(frame_vertices, np.int64)
+    harea = tri.areas if halo is None else tri.areas[halo]
+    w = weights
+    return TermContext(
+        weights=w, areas=tri.areas[faces], bary_gradients=tri.bary_gradients[faces],
+        faces=renumber(tri.faces[faces]), uv=tri.uv[hv], V=V[hv], halo_faces=hfaces,
+        fit=local_rbf_fit(tri.uv[hv], V[hv], hfaces, max_degree=w.fit_degree, rings=w.fit_rings),
+        frame_vertices=renumber(fv), frame_scale=space.frame_scale[fv],
+        vertex_area=vertex_areas(hfaces, harea, hv.size)[renumber(fv)], data_points=data_points,
+        sample_weight=tri.n_vertices / float(tri.areas.sum()))

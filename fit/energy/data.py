@@ -1,0 +1,85 @@
+"""``data``: extra sample points ``F(face, bary) ~ xyz`` between the vertices.
+
+Residual ``sqrt(weight) (F(face, bary) - xyz) / h`` with ``h^2 = domain area / n_vertices``
+(the mean uv area per vertex), so the term is measured like the others however many samples
+there are per vertex.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from trispline.spline.bernstein import basis
+from trispline.spline.checks import as_array, check_ids
+from trispline.spline.errors import InputError
+from trispline.spline.index import NCTRL
+
+from .arrays import array_module
+
+__all__ = ["DataPoints", "as_data_points"]
+
+NAME = "data"
+LINEAR = True
+#: The energy scales like (data size)**2.
+SCALE_EXPONENT = 2
+#: Samples per chunk of the normal blocks (memory: chunk * 21 * 21 floats).
+_CHUNK = 4096
+
+
+@dataclass(frozen=True)
+class DataPoints:
+    """Extra samples for the data term: ``F(face[i], bary[i]) ~ xyz[i]``.
+
+    Attributes
+    ----------
+    face : (n,) int64 patches, bary : (n, 3) barycentric coordinates, xyz : (n, 3) data
+    """
+
+    face: np.ndarray
+    bary: np.ndarray
+    xyz: np.ndarray
+
+
+def as_data_points(data_points, n_faces: int) -> DataPoints:
+    """Validate ``DataPoints`` or a ``(face, bary, xyz)`` tuple against ``n_faces`` patches."""
+    if isinstance(data_points, DataPoints):
+        face, bary, xyz = data_points.face, data_points.bary, data_points.xyz
+    else:
+        try:
+            face, bary, xyz = data_points
+        except (TypeError, ValueError) as exc:
+            raise InputError("data_points must be DataPoints or a (face, bary, xyz) tuple") from exc
+    face = as_array(face, "data_points face", (None,), integer=True)
+    n = face.shape[0]
+    if np.shape(bary) != (n, 3) or np.shape(xyz) != (n, 3):
+        raise InputError(f"data_points bary and xyz must have shape ({n}, 3), got {np.shape(bary)} and {np.shape(xyz)}")
+    check_ids(face, "data_points face", n_faces)
+    return DataPoints(face, as_array(bary, "data_points bary", (n, 3), finite=True),
+                      as_array(xyz, "data_points xyz", (n, 3), finite=True))
+
+
+def setup(ctx) -> dict[str, np.ndarray]:
+    """``face (s,)``, ``basis (s, 21)``, ``target (s, 3)`` and ``scale (s,)`` of the samples (none: empty)."""
+    dp = ctx.data_points
+    if dp is None:
+        return dict(face=np.zeros(0, np.int64), basis=np.zeros((0, NCTRL)), target=np.zeros((0, 3)),
+                    scale=np.zeros(0))
+    scale = np.full(dp.face.size, np.sqrt(ctx.weights.data * ctx.sample_weight))
+    return dict(face=dp.face, basis=basis(dp.bary), target=dp.xyz, scale=scale)
+
+
+def residual(ctrl, frames, a: dict):
+    """``(s, d)`` scaled errors of the surface of ``ctrl (n, 21, d)`` at the samples."""
+    xp = array_module(ctrl)
+    vals = xp.einsum("nk,nkc->nc", a["basis"], ctrl[a["face"]])
+    return a["scale"][:, None] * (vals - a["target"])
+
+
+def add_normal(parts, a: dict) -> None:
+    """Adds ``s^2 b b^T`` and ``s^2 b xyz^T`` of every sample ``b = basis`` to its patch."""
+    for lo in range(0, a["face"].size, _CHUNK):
+        sl = slice(lo, lo + _CHUNK)
+        b = a["basis"][sl] * a["scale"][sl, None]
+        np.add.at(parts.blocks, a["face"][sl], b[:, :, None] * b[:, None, :])
+        np.add.at(parts.patch_rhs, a["face"][sl], b[:, :, None] * (a["scale"][sl, None] * a["target"][sl])[:, None, :])

@@ -1,0 +1,73 @@
+"""``local``: every control point off the corner regions pulled toward the data's local fits.
+
+The target of control point ``b_ijk`` of a patch is the blend ``sum_k e_k^p N_k / sum_k e_k^p``
+of the exact quintic nets ``N_k`` of the three vertices' local fits on the patch (``e`` the
+point's exponents, ``p`` the blend power), so points near a corner follow that corner's fit:
+second derivatives at the corners and cross-boundary derivatives along the edges come from
+the data. Residual ``sqrt(weight / area_f) (P - target)``. Corner and star points are left
+out: the interpolation and the ``tilt`` term fix them.
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from trispline.spline.bernstein import basis
+from trispline.spline.index import CORNER, DEGREE, EXPONENTS, NCTRL, STAR
+
+NAME = "local"
+LINEAR = True
+#: The energy scales like (data size)**2.
+SCALE_EXPONENT = 2
+
+#: (21,) patch points carrying the term: all but the corners and the stars.
+MASK = np.ones(NCTRL, bool)
+MASK[CORNER] = False
+MASK[STAR[STAR >= 0]] = False
+MASK.setflags(write=False)
+
+
+def blended_targets(uv: np.ndarray, faces: np.ndarray, evaluate_fit: Callable, *, power: float = 2.0) -> np.ndarray:
+    """Per-patch target nets ``(F, 21, d)`` from the three vertices' local fits.
+
+    ``evaluate_fit(vertex_ids (F,), points (F, 21, 2)) -> (F, 21, d)`` evaluates the local
+    fit of ``vertex_ids[f]`` at the 21 domain points of patch ``f`` (the grouped form of
+    :meth:`trispline.fit.targets.LocalRBFFit.evaluate`); ``uv (nv, 2)``, ``faces (F, 3)``.
+    """
+    faces = np.asarray(faces, np.int64)
+    grid = EXPONENTS / DEGREE  # the control points' domain points, barycentric
+    pts = np.einsum("gk,fkc->fgc", grid, uv[faces])  # (F, 21, 2)
+    Binv = np.linalg.inv(basis(grid))  # (21, 21) values at the domain points -> control points
+    e = EXPONENTS.astype(float) ** power
+    beta = e / e.sum(1, keepdims=True)  # (21, 3)
+    out = None
+    for k in range(3):
+        net = np.einsum("ij,fjd->fid", Binv, evaluate_fit(faces[:, k], pts))
+        term = beta[None, :, k, None] * net
+        out = term if out is None else out + term
+    return out
+
+
+def setup(ctx) -> dict[str, np.ndarray]:
+    """``index (r,)`` into the flattened patch points ``(21 n)``, ``target (r, 3)``, ``scale (r,)``."""
+    w = ctx.weights
+    n = ctx.faces.shape[0]
+    if w.local <= 0:
+        return dict(index=np.zeros(0, np.int64), target=np.zeros((0, 3)), scale=np.zeros(0))
+    target = blended_targets(ctx.uv, ctx.faces, ctx.fit.evaluate, power=w.blend_power)
+    face, slot = np.nonzero(np.broadcast_to(MASK, (n, NCTRL)))
+    return dict(index=face * NCTRL + slot, target=target[face, slot], scale=np.sqrt(w.local / ctx.areas[face]))
+
+
+def residual(ctrl, frames, a: dict):
+    """``(r, d)`` scaled errors of the patch points ``ctrl (n, 21, d)``."""
+    return a["scale"][:, None] * (ctrl.reshape(-1, ctrl.shape[-1])[a["index"]] - a["target"])
+
+
+def add_normal(parts, a: dict) -> None:
+    """Adds ``scale^2`` on the blocks' diagonals (every row is one patch point, each once)."""
+    w = a["scale"] ** 2
+    face, slot = np.divmod(a["index"], NCTRL)
+    parts.blocks[face, slot, slot] += w
+    parts.patch_rhs[face, slot] += w[:, None] * a["target"]

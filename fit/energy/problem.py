@@ -1,0 +1,94 @@
+"""The global fit's least-squares problem over the non-corner free points.
+
+The corner points are fixed to the data, so the control points are ``P = c0 + M_r x``
+with ``x (k, 3)`` the other free points. :func:`residuals` is the optimistix residual:
+a module-level function whose arrays all travel in ``args`` (a pytree of arrays, built
+by :func:`setup_problem`), never closed over, so XLA does not constant-fold the mesh.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import scipy.sparse as sp
+
+from trispline.spline.propagation import SplineSpace
+
+from ..weights import FitWeights
+from .context import frame_ids, term_context
+from .data import DataPoints
+from .normal import normal_equations
+from .terms import MODULES, is_nonlinear, normal_parts, setup_terms, term_residuals
+
+__all__ = ["Problem", "setup_problem", "control_points", "residuals", "energies", "energy_units"]
+
+
+@dataclass
+class Problem:
+    """The fit's residual arrays and the normal equations of its linear terms.
+
+    Attributes
+    ----------
+    args : pytree of JAX arrays for :func:`residuals`
+    H : (k, k) sparse SPD normal matrix of the linear terms (one per coordinate)
+    rhs : (k, 3) their right-hand side: ``H^{-1} rhs`` minimises the linear terms
+    free_r : (k,) free ids of the unknowns
+    nonlinear : whether a nonlinear term has rows
+    """
+
+    args: dict
+    H: sp.csr_array
+    rhs: np.ndarray
+    free_r: np.ndarray
+    nonlinear: bool
+
+
+def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
+                  data_points: DataPoints | None = None) -> Problem:
+    """Targets, residual arrays and normal equations for data vertices ``V (nv, 3)``."""
+    is_fixed = np.zeros(space.n_free, bool)
+    is_fixed[space.corner_free] = True
+    free_r = np.flatnonzero(~is_fixed)
+    pos = np.full(space.n_free, -1, np.int64)
+    pos[free_r] = np.arange(free_r.size)
+    M = sp.csc_matrix(space.M)
+    M_r = sp.csr_matrix(M[:, free_r])
+    M_r.sort_indices()
+    c0 = np.asarray(M[:, space.corner_free] @ V)
+
+    ctx = term_context(space, V, weights, data_points=data_points)
+    terms = setup_terms(ctx)
+    frame_pos = pos[frame_ids(space, ctx.frame_vertices)]
+    A = M_r[np.asarray(space.point_index).ravel()]  # (21 F, k) patch points per unknown
+    parts = normal_parts(terms, space.tri.n_faces, frame_pos.size)
+    H, rhs = normal_equations(A, c0[np.asarray(space.point_index).ravel()], frame_pos, parts)
+
+    Mc = M_r.tocoo()
+    args = dict(M_rows=Mc.row.astype(np.int64), M_cols=Mc.col.astype(np.int64), M_vals=Mc.data, c0=c0,
+                point_index=space.point_index, frame_pos=frame_pos, terms=terms)
+    return Problem(args=jax.tree_util.tree_map(jnp.asarray, args), H=H, rhs=rhs, free_r=free_r,
+                   nonlinear=is_nonlinear(terms))
+
+
+def control_points(x: jax.Array, args: dict) -> jax.Array:
+    """All control points ``(n_points, 3)`` = fixed part + ``M_r @ x``."""
+    contrib = args["M_vals"][:, None] * x[args["M_cols"]]
+    return args["c0"].at[args["M_rows"]].add(contrib)
+
+
+def residuals(x: jax.Array, args: dict) -> dict[str, jax.Array]:
+    """All residuals, one array per term (terms with no rows give empty arrays)."""
+    ctrl = control_points(x, args)[args["point_index"]]
+    return term_residuals(ctrl, x[args["frame_pos"]], args["terms"])
+
+
+def energies(x: jax.Array, args: dict) -> dict[str, jax.Array]:
+    """Energy (sum of squared residuals, weights included) of every term."""
+    return {k: jnp.sum(v * v) for k, v in residuals(x, args).items()}
+
+
+def energy_units(size: float) -> dict[str, float]:
+    """Factor per term turning energies of data scaled by ``1 / size`` back into data units."""
+    return {m.NAME: size ** m.SCALE_EXPONENT for m in MODULES}

@@ -1,0 +1,37 @@
+"""``tilt``: each corner frame pulled toward the local fit's tangent frame (paper 7.2.3).
+
+The two frame points of vertex ``v`` are ``h_v(uv_v + (d_v / 5) e_k)``, ``k = u, v``; their
+targets put the local fit's gradient there: ``V_v + grad_k (d_v / 5)``. Residual
+``sqrt(weight A_v) (5 / d_v^2) (frame - target)``, with ``A_v`` a third of the incident uv
+area: like a first derivative error squared, integrated over the vertex's share of the domain.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+NAME = "tilt"
+LINEAR = True
+#: The energy scales like (data size)**2.
+SCALE_EXPONENT = 2
+
+
+def setup(ctx) -> dict[str, np.ndarray]:
+    """``target (2m, 3)`` and ``scale (2m,)`` of the frame points (``u`` frames, then ``v`` frames)."""
+    d = ctx.frame_scale
+    Vf = ctx.V[ctx.frame_vertices]
+    grad = ctx.fit.grad[ctx.frame_vertices]  # (m, 3, 2)
+    step = (d / 5.0)[:, None]
+    target = np.concatenate([Vf + grad[:, :, 0] * step, Vf + grad[:, :, 1] * step])
+    scale = np.tile(np.sqrt(ctx.weights.tilt * ctx.vertex_area) * 5.0 / d**2, 2)
+    return dict(target=target, scale=scale)
+
+
+def residual(ctrl, frames, a: dict):
+    """``(2m, d)`` scaled frame errors of ``frames (2m, d)``."""
+    return a["scale"][:, None] * (frames - a["target"])
+
+
+def add_normal(parts, a: dict) -> None:
+    w = a["scale"] ** 2
+    parts.frame_weight += w
+    parts.frame_rhs += w[:, None] * a["target"]
