@@ -12,7 +12,8 @@ from math import factorial
 
 import numpy as np
 
-from .index import DEGREE, EXPONENTS, NCTRL
+from .checks import as_array
+from .index import DEGREE, EXPONENTS, NCTRL, lattice
 
 _MULTINOMIAL = np.array(
     [factorial(DEGREE) / (factorial(i) * factorial(j) * factorial(k)) for i, j, k in EXPONENTS]
@@ -51,9 +52,7 @@ def basis(bary: np.ndarray, order: tuple[int, int, int] = (0, 0, 0)) -> np.ndarr
     (n, 21) float
         ``d^|order| B_ijk / dl_a^oa dl_b^ob dl_c^oc`` in storage order.
     """
-    bary = np.asarray(bary, dtype=np.float64)
-    if bary.ndim != 2 or bary.shape[1] != 3:
-        raise ValueError(f"bary must have shape (n, 3), got {bary.shape}")
+    bary = as_array(bary, "bary", (None, 3))
     pw = _powers(bary, DEGREE)
     out = np.broadcast_to(_MULTINOMIAL, (bary.shape[0], NCTRL)).copy()
     for c in range(3):
@@ -84,16 +83,11 @@ def basis_hessian_bary(bary: np.ndarray) -> np.ndarray:
 
 
 def bary_grid(resolution: int) -> np.ndarray:
-    """Barycentric points of the regular grid with ``resolution`` steps per edge.
+    """Barycentric points of the regular grid with ``resolution`` steps per edge: ``lattice(r) / r``.
 
     Returns
     -------
     (n, 3) with n = (r + 1)(r + 2) / 2, ordered like the control points
-    (first coordinate descending, then second descending).
+    (first coordinate descending, then second descending); see :func:`~trispline.spline.index.lattice`.
     """
-    r = int(resolution)
-    if r < 1:
-        raise ValueError(f"resolution must be >= 1, got {resolution}")
-    ij = [(i, j) for i in range(r, -1, -1) for j in range(r - i, -1, -1)]
-    a = np.array(ij, dtype=np.float64)
-    return np.column_stack([a[:, 0], a[:, 1], r - a[:, 0] - a[:, 1]]) / r
+    return lattice(resolution) / int(resolution)

@@ -44,17 +44,12 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .errors import InputError, first_few
+from .checks import as_array, check_ids
+from .errors import DependentPointError, InputError, NotC1Error, first_few
 from .propagation import KIND_FRAME, KIND_NAMES, SplineSpace
-from .errors import DependentPointError, NotC1Error
+from .tolerances import FROM_SURFACE_RTOL
 
 __all__ = ["SplineEditor", "EditResult", "DependentPointError", "NotC1Error"]
-
-#: A surface handed to :meth:`SplineEditor.from_surface` must reproduce from its
-#: free points to this relative accuracy (it must lie in the C1 spline space).
-FROM_SURFACE_RTOL = 1e-9
-
-
 
 
 @dataclass(frozen=True)
@@ -104,12 +99,7 @@ class SplineEditor:
     """
 
     def __init__(self, space: SplineSpace, free: np.ndarray) -> None:
-        free = np.array(free, dtype=np.float64)
-        if free.ndim != 2 or free.shape[0] != space.n_free:
-            raise InputError(f"free must have shape ({space.n_free}, d), got {free.shape}")
-        bad = np.flatnonzero(~np.isfinite(free).all(1))
-        if bad.size:
-            raise InputError(f"non-finite free points: {first_few(bad)}")
+        free = np.array(as_array(free, "free", (space.n_free, "d"), finite=True))  # a copy: the editor's own
         self.space = space
         self._free = free
         M = sp.csr_array(space.M)
@@ -152,9 +142,7 @@ class SplineEditor:
 
         if space is None:
             space = build_space(surface.uv, surface.faces)
-        ctrl = np.asarray(surface.ctrl, np.float64)
-        if ctrl.shape[:2] != space.point_index.shape:
-            raise InputError(f"surface has ctrl {ctrl.shape}, the space expects {space.point_index.shape + (3,)}")
+        ctrl = as_array(surface.ctrl, "surface ctrl", space.point_index.shape + ("d",))
         pts = np.zeros((space.n_points, ctrl.shape[-1]))
         pts[space.point_index.reshape(-1)] = ctrl.reshape(-1, ctrl.shape[-1])
         free = space.free_from_points(pts)
@@ -242,19 +230,15 @@ class SplineEditor:
     def controllers(self, points) -> np.ndarray:
         """Sorted free ids whose positions determine control point(s) ``points`` (int or
         ``(k,)``): the nonzero columns of those rows of M."""
-        pts = np.atleast_1d(np.asarray(points)).astype(np.int64)
-        bad = pts[(pts < 0) | (pts >= self.space.n_points)]
-        if bad.size:
-            raise InputError(f"control point id {first_few(bad)} outside [0, {self.space.n_points})")
+        pts = check_ids(as_array(np.atleast_1d(points), "control point ids", (None,), integer=True),
+                        "control point ids", self.space.n_points)
         idx, _ = _ranges(self._indptr, pts)
         return np.unique(self._indices[idx][self._data[idx] != 0]).astype(np.int64)
 
     def vertex_faces(self, vertices) -> np.ndarray:
         """Sorted patches containing any of ``vertices`` (int or ``(k,)``), in ``O(k)``."""
-        v = np.atleast_1d(np.asarray(vertices)).astype(np.int64)
-        bad = v[(v < 0) | (v >= self.space.tri.n_vertices)]
-        if bad.size:
-            raise InputError(f"vertex ids {first_few(bad)} outside [0, {self.space.tri.n_vertices})")
+        v = check_ids(as_array(np.atleast_1d(vertices), "vertex ids", (None,), integer=True),
+                      "vertex ids", self.space.tri.n_vertices)
         return self._faces_of(v)  # corner point id == vertex id
 
     def supports(self, free_ids) -> tuple[np.ndarray, np.ndarray]:
@@ -340,14 +324,8 @@ class SplineEditor:
         EditResult
         """
         ids = self._free_ids(free_ids)
-        pos = np.asarray(positions, dtype=np.float64)
-        d = self._free.shape[1]
-        if pos.shape == (d,):
-            pos = pos[None, :]
-        if pos.shape != (ids.size, d):
-            raise InputError(f"positions must have shape ({ids.size}, {d}), got {pos.shape}")
-        if not np.isfinite(pos).all():
-            raise InputError(f"non-finite positions for free points {first_few(ids[~np.isfinite(pos).all(1)])}")
+        # one position (d,) reads as (1, d)
+        pos = as_array(np.atleast_2d(positions), "positions", (ids.size, self._free.shape[1]), finite=True)
         old = self._free[ids]
         self._free[ids] = pos
         rows = self._column_rows(ids)
@@ -400,14 +378,8 @@ class SplineEditor:
         return int(face), int(k)
 
     def _free_ids(self, free_ids) -> np.ndarray:
-        ids = np.atleast_1d(np.asarray(free_ids))
-        if ids.ndim != 1 or not (np.issubdtype(ids.dtype, np.integer) or ids.size == 0):
-            raise InputError(f"free ids must be an integer or a 1-D integer array, got {ids.dtype} {ids.shape}")
-        ids = ids.astype(np.int64, copy=False)
-        n = self.space.n_free
-        bad = np.flatnonzero((ids < 0) | (ids >= n))
-        if bad.size:
-            raise InputError(f"free ids outside [0, {n}): {first_few(ids[bad])}")
+        ids = as_array(np.atleast_1d(free_ids), "free ids", (None,), integer=True, whole_floats=False)
+        check_ids(ids, "free ids", self.space.n_free)
         if ids.size > 1 and np.unique(ids).size != ids.size:
             s = np.sort(ids)
             raise InputError(f"free ids repeat in one edit: {first_few(np.unique(s[1:][s[1:] == s[:-1]]))}")

@@ -14,16 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .util import gather as _gather
-from .errors import InputError, first_few
+from .checks import as_array, check_ids
+from .errors import OutsideDomainError, first_few
+from .tolerances import BARY_TOL, TINY
 from .topology import signed_areas
-from .errors import OutsideDomainError
+from .util import gather as _gather
 
 __all__ = ["Locator", "locate", "OutsideDomainError"]
-
-#: Relative tolerance (of the barycentric coordinates) for points on edges.
-BARY_TOL = 1e-10
-
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,18 +36,15 @@ class Locator:
     faces: np.ndarray
 
     def __post_init__(self) -> None:
-        uv = np.ascontiguousarray(self.uv, dtype=np.float64)
-        faces = np.ascontiguousarray(self.faces, dtype=np.int64)
-        if uv.ndim != 2 or uv.shape[1] != 2:
-            raise InputError(f"uv must have shape (V, 2), got {uv.shape}")
-        if faces.ndim != 2 or faces.shape[1] != 3 or faces.shape[0] == 0:
-            raise InputError(f"faces must have shape (F, 3) with F > 0, got {faces.shape}")
+        uv = np.ascontiguousarray(as_array(self.uv, "uv", ("V", 2)))
+        faces = as_array(self.faces, "faces", ("F", 3), integer=True, min_rows=1)
+        faces = np.ascontiguousarray(check_ids(faces, "faces", uv.shape[0]))
         object.__setattr__(self, "uv", uv)
         object.__setattr__(self, "faces", faces)
         tri = _gather.rows(uv, faces)  # (F, 3, 2)
         lo, hi = tri.min(1), tri.max(1)
         blo, bhi = lo.min(0), hi.max(0)
-        ext = np.maximum(bhi - blo, 1e-300)
+        ext = np.maximum(bhi - blo, TINY)
         nf = faces.shape[0]
         # cell size from the typical face extent, but no more than ~4 F cells
         h = float(np.median((hi - lo).max(1)))
@@ -89,12 +83,7 @@ class Locator:
     def __call__(self, points: np.ndarray, *, strict: bool = False, chunk: int = 1 << 18
                  ) -> tuple[np.ndarray, np.ndarray]:
         """Locate points; see :func:`locate`."""
-        pts = np.asarray(points, dtype=np.float64)
-        if pts.ndim != 2 or pts.shape[1] != 2:
-            raise InputError(f"points must have shape (n, 2), got {pts.shape}")
-        bad = np.flatnonzero(~np.isfinite(pts).all(1))
-        if bad.size:
-            raise InputError(f"non-finite query points: {first_few(bad)}")
+        pts = as_array(points, "points", (None, 2), finite=True)
         m = pts.shape[0]
         face_idx = np.full(m, -1, np.int64)
         bary = np.full((m, 3), np.nan)

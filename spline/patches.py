@@ -23,7 +23,8 @@ import numpy as np
 from .util import gather as _gather
 from .index import NCTRL
 from .bernstein import basis, basis_gradient_bary, basis_hessian_bary
-from .errors import InputError, first_few
+from .checks import as_array, check_ids
+from .errors import InputError
 from .topology import Triangulation, signed_areas
 
 __all__ = [
@@ -54,24 +55,13 @@ def face_bary_gradients(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 def check_ctrl(faces: np.ndarray, ctrl: np.ndarray) -> np.ndarray:
     """Validate ``ctrl: (F, 21, d)`` against ``faces: (F, 3)``; return it as float64."""
-    ctrl = np.asarray(ctrl, dtype=np.float64)
-    nf = np.asarray(faces).shape[0]
-    if ctrl.ndim != 3 or ctrl.shape[0] != nf or ctrl.shape[1] != NCTRL:
-        raise InputError(f"control points must have shape ({nf}, {NCTRL}, d), got {ctrl.shape}")
-    return ctrl
+    return as_array(ctrl, "control points", (np.asarray(faces).shape[0], NCTRL, "d"))
 
 
 def _check_queries(nf: int, face_idx: np.ndarray, bary: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    face_idx = np.asarray(face_idx)
-    bary = np.asarray(bary, dtype=np.float64)
-    if face_idx.ndim != 1 or not np.issubdtype(face_idx.dtype, np.integer):
-        raise InputError(f"face_idx must be a 1-d integer array, got shape {face_idx.shape}, dtype {face_idx.dtype}")
-    if bary.shape != (face_idx.shape[0], 3):
-        raise InputError(f"bary must have shape ({face_idx.shape[0]}, 3), got {bary.shape}")
-    bad = np.flatnonzero((face_idx < 0) | (face_idx >= nf))
-    if bad.size:
-        raise InputError(f"face_idx outside [0, {nf}) at queries {first_few(bad)}")
-    return face_idx, bary
+    """``face_idx: (n,)`` int64 ids of the ``nf`` faces and ``bary: (n, 3)`` float64, validated."""
+    face_idx = check_ids(as_array(face_idx, "face_idx", (None,), integer=True, whole_floats=False), "face_idx", nf)
+    return face_idx, as_array(bary, "bary", (face_idx.shape[0], 3))
 
 
 def evaluate(
@@ -176,10 +166,8 @@ def evaluate_grid(
     values : (F, n, d)
     and, with ``uv``/``faces``: du, dv : (F, n, d)
     """
-    ctrl = np.asarray(ctrl, dtype=np.float64)
-    if ctrl.ndim != 3 or ctrl.shape[1] != NCTRL:
-        raise InputError(f"control points must have shape (F, {NCTRL}, d), got {ctrl.shape}")
-    bary = np.asarray(bary, dtype=np.float64)
+    ctrl = as_array(ctrl, "control points", ("F", NCTRL, "d"))
+    bary = as_array(bary, "bary", (None, 3))
     nf, _, d = ctrl.shape
     n = bary.shape[0]
     flat = ctrl.transpose(1, 0, 2).reshape(NCTRL, nf * d)

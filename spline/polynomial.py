@@ -16,10 +16,11 @@ from typing import Callable
 import numpy as np
 import scipy.linalg
 
-from .util import gather as _gather
-from .index import DEGREE
 from .bernstein import bary_grid, basis
+from .checks import as_array, check_ids
 from .errors import InputError
+from .index import DEGREE
+from .util import gather as _gather
 
 __all__ = ["Polynomial", "polynomial_control_net", "random_polynomial"]
 
@@ -47,12 +48,8 @@ def polynomial_control_net(
     -------
     ctrl : (F, 21, d) float64 (``d = 1`` for a scalar ``func``)
     """
-    uv = np.asarray(uv, dtype=np.float64)
-    faces = np.asarray(faces)
-    if uv.ndim != 2 or uv.shape[1] != 2:
-        raise InputError(f"uv must have shape (V, 2), got {uv.shape}")
-    if faces.ndim != 2 or faces.shape[1] != 3:
-        raise InputError(f"faces must have shape (F, 3), got {faces.shape}")
+    uv = as_array(uv, "uv", ("V", 2))
+    faces = check_ids(as_array(faces, "faces", ("F", 3), integer=True), "faces", uv.shape[0])
     nf = faces.shape[0]
     grid = bary_grid(DEGREE)  # (21, 3)
     pts = np.einsum("gk,fkc->fgc", grid, _gather.rows(uv, faces))  # (F, 21, 2)

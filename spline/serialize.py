@@ -11,23 +11,25 @@ Keys (both variants)::
 
 Any other key is optional: writers may add them, readers keep them as
 ``extras`` and never fail on a key they do not know. Files are written
-atomically (a temporary file in the target folder, then :func:`os.replace`), so
-a failed write never leaves a partial file behind.
+atomically (:func:`~trispline.spline.util.atomic.atomic_path`: a temporary file in
+the target folder, then :func:`os.replace`), so a failed write never leaves a
+partial file behind, and with the permissions of any other output (``0o666``
+minus the umask, or those of the file it replaces).
 """
 from __future__ import annotations
 
 import json
 import os
-import tempfile
 import zipfile
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
+from .checks import as_array, check_ids
+from .errors import InputError, OutputError, SurfaceFileError, first_few
 from .index import DEGREE, NCTRL
-from .errors import InputError, first_few
-from .errors import SurfaceFileError
+from .util.atomic import atomic_path
 
 __all__ = [
     "FORMAT",
@@ -59,34 +61,17 @@ def validate_surface_arrays(
     Returns ``uv (V, 2) float64``, ``faces (F, 3) int64``, ``ctrl (F, 21, 3) float64``.
     Raises ``error`` (default :class:`SurfaceFileError`) naming the problem.
     """
-    try:
-        uv = np.asarray(uv, dtype=np.float64)
-        ctrl = np.asarray(ctrl, dtype=np.float64)
-        faces_raw = np.asarray(faces)
-    except (TypeError, ValueError) as exc:
-        raise error(f"{source}: arrays are not numeric ({exc})") from None
-    if uv.ndim != 2 or uv.shape[1] != 2:
-        raise error(f"{source}: uv must have shape (V, 2), got {uv.shape}")
-    if faces_raw.ndim != 2 or faces_raw.shape[1] != 3 or faces_raw.shape[0] == 0:
-        raise error(f"{source}: faces must have shape (F, 3) with F > 0, got {faces_raw.shape}")
-    if faces_raw.dtype.kind == "f":
-        if not np.all(np.isfinite(faces_raw)) or np.any(faces_raw != np.round(faces_raw)):
-            raise error(f"{source}: faces must hold integer vertex ids")
-    elif faces_raw.dtype.kind not in "iu":
-        raise error(f"{source}: faces must hold integer vertex ids, got dtype {faces_raw.dtype}")
-    faces = faces_raw.astype(np.int64)
+    uv = as_array(uv, f"{source}: uv", ("V", 2), error=error)
+    faces = as_array(faces, f"{source}: faces", ("F", 3), integer=True, min_rows=1, error=error)
     nf = faces.shape[0]
-    if ctrl.shape != (nf, NCTRL, 3):
-        raise error(f"{source}: control_points must have shape ({nf}, {NCTRL}, 3), got {ctrl.shape}")
+    ctrl = as_array(ctrl, f"{source}: control_points", (nf, NCTRL, 3), error=error)
     bad = np.flatnonzero(~np.isfinite(uv).all(1))
     if bad.size:
         raise error(f"{source}: NaN or infinite uv at vertices {first_few(bad)}")
     bad = np.flatnonzero(~np.isfinite(ctrl).all((1, 2)))
     if bad.size:
         raise error(f"{source}: NaN or infinite control points in faces {first_few(bad)}")
-    bad = np.flatnonzero(((faces < 0) | (faces >= uv.shape[0])).any(1))
-    if bad.size:
-        raise error(f"{source}: faces with vertex ids outside [0, {uv.shape[0]}): {first_few(bad)}")
+    check_ids(faces, f"{source}: faces", uv.shape[0], error=error)
     return uv, faces, ctrl
 
 
@@ -108,21 +93,13 @@ def _check_header(get, source: str) -> None:
         raise SurfaceFileError(f"{source}: degree {degree} is not supported (only quintic, degree {DEGREE})")
 
 
-def _atomic_write(path: Path, write) -> None:
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise SurfaceFileError(f"{path}: folder {folder} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+def _write_atomically(path: Path, write: Callable[[Any], None]) -> None:
+    """``write(binary file)`` into ``path``, all or nothing; an unwritable path is a :class:`SurfaceFileError`."""
     try:
-        with os.fdopen(fd, "wb") as fh:
+        with atomic_path(path) as tmp, open(tmp, "wb") as fh:
             write(fh)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    except OutputError as exc:
+        raise SurfaceFileError(str(exc)) from None
 
 
 def _jsonable(value: Any) -> Any:
@@ -162,13 +139,13 @@ def write_surface(
         bad = sorted(k for k, v in arrays.items() if v.dtype == object)
         if bad:
             raise SurfaceFileError(f"extras {bad} are not numeric or string arrays; NPZ cannot store them")
-        _atomic_write(path, lambda fh: np.savez_compressed(fh, **arrays))
+        _write_atomically(path, lambda fh: np.savez_compressed(fh, **arrays))
     else:
         try:
             text = json.dumps(_jsonable({**data, **extras}), allow_nan=False)
         except (TypeError, ValueError) as exc:
             raise SurfaceFileError(f"extras cannot be written as JSON: {exc}") from None
-        _atomic_write(path, lambda fh: fh.write(text.encode("utf-8")))
+        _write_atomically(path, lambda fh: fh.write(text.encode("utf-8")))
     return path
 
 

@@ -21,17 +21,20 @@ from functools import cached_property
 
 import numpy as np
 
-from .util import gather as _gather, parallel as _parallel
+from .checks import as_array, check_ids
 from .errors import TriangulationError, first_few
+from .tolerances import MIN_RELATIVE_AREA
+from .util import gather as _gather, parallel as _parallel
 
-#: Faces whose uv area is below this fraction of the mean face area are rejected.
-MIN_RELATIVE_AREA = 1e-14
+
+def triangle_areas(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Signed areas ``(n,)`` of the triangles ``(a, b, c)``, each ``(n, 2)``; positive counter-clockwise."""
+    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
 
 
 def signed_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Signed uv areas ``(nf,)``, positive for counter-clockwise faces."""
-    a, b, c = (_gather.rows(uv, faces[:, k]) for k in range(3))
-    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    """Signed uv areas ``(nf,)`` of ``faces: (nf, 3)`` over ``uv: (nv, 2)``, positive for counter-clockwise faces."""
+    return triangle_areas(*(_gather.rows(uv, faces[:, k]) for k in range(3)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,17 +52,10 @@ class Triangulation:
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        uv = np.ascontiguousarray(self.uv, dtype=np.float64)
-        faces = np.asarray(self.faces)
-        if uv.ndim != 2 or uv.shape[1] != 2:
-            raise TriangulationError(f"uv must have shape (nv, 2), got {uv.shape}")
-        if faces.ndim != 2 or faces.shape[1] != 3:
-            raise TriangulationError(f"faces must have shape (nf, 3), got {faces.shape}")
-        if faces.shape[0] == 0:
-            raise TriangulationError("the triangulation has no faces")
-        if not np.issubdtype(faces.dtype, np.integer):
-            raise TriangulationError(f"faces must be integers, got dtype {faces.dtype}")
-        faces = np.ascontiguousarray(faces, dtype=np.int64)
+        err = TriangulationError
+        uv = np.ascontiguousarray(as_array(self.uv, "uv", ("nv", 2), finite=True, error=err))
+        faces = as_array(self.faces, "faces", ("nf", 3), integer=True, whole_floats=False, min_rows=1, error=err)
+        faces = np.ascontiguousarray(check_ids(faces, "faces", uv.shape[0], error=err))
         object.__setattr__(self, "uv", uv)
         object.__setattr__(self, "faces", faces)
         uv.setflags(write=False)
@@ -70,12 +66,6 @@ class Triangulation:
     def _validate(self) -> None:
         uv, faces = self.uv, self.faces
         nv = uv.shape[0]
-        if not np.all(np.isfinite(uv)):
-            bad = np.flatnonzero(~np.all(np.isfinite(uv), axis=1))
-            raise TriangulationError(f"non-finite uv coordinates at vertices {first_few(bad)}")
-        if faces.min() < 0 or faces.max() >= nv:
-            bad = np.flatnonzero((faces < 0).any(1) | (faces >= nv).any(1))
-            raise TriangulationError(f"faces with vertex ids outside [0, {nv}): {first_few(bad)}")
         bad = np.flatnonzero(
             (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
         )

@@ -118,11 +118,11 @@ def test_evaluate_input_errors():
     ctrl = np.zeros((faces.shape[0], 21, 3))
     with pytest.raises(InputError, match="control points must have shape"):
         evaluate(uv, faces, ctrl[:, :20], np.array([0]), np.array([[1.0, 0, 0]]))
-    with pytest.raises(InputError, match="face_idx outside"):
+    with pytest.raises(InputError, match="face_idx refer to ids outside"):
         evaluate(uv, faces, ctrl, np.array([0, faces.shape[0]]), np.full((2, 3), 1 / 3))
     with pytest.raises(InputError, match="bary must have shape"):
         evaluate(uv, faces, ctrl, np.array([0, 1]), np.full((3, 3), 1 / 3))
-    with pytest.raises(InputError, match="1-d integer"):
+    with pytest.raises(InputError, match="face_idx must hold integers"):
         evaluate(uv, faces, ctrl, np.array([0.0]), np.full((1, 3), 1 / 3))
 
 

@@ -184,12 +184,12 @@ def test_non_manifold_edges_and_bowtie_vertices_are_rejected():
 def thread_mode(request, monkeypatch):
     """Run inline, or force the threaded paths (tiny ranges) that large meshes take."""
     if request.param == "threaded":
-        from trispline.spline import propagation
+        from trispline.spline.propagation import space as _space
         from trispline.spline.util import parallel as _parallel, sparse as _sparse
 
         monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1)
         monkeypatch.setattr(_parallel, "CHUNK", 7)
-        monkeypatch.setattr(propagation, "PATCH_CHUNK", 5)
+        monkeypatch.setattr(_space, "PATCH_CHUNK", 5)
         monkeypatch.setattr(_sparse, "THREADED_NNZ", 0)
     return request.param
 
@@ -217,18 +217,18 @@ def _space_arrays(space) -> dict:
 @given(triangulations(), st.integers(1, 50))
 def test_threaded_build_equals_the_inline_build_bit_for_bit(case, chunk):
     """Large meshes build M on ranges of edges in threads; the ranges must not change a bit."""
-    from trispline.spline import propagation
+    from trispline.spline.propagation import elimination
     from trispline.spline.util import parallel as _parallel, sparse as _sparse
 
     kind, uv, faces = case
     inline = _space_arrays(build_space(uv, faces))
-    saved = _parallel.PARALLEL_MIN, _parallel.CHUNK, propagation.SYSTEM_BATCH, _sparse.THREADED_NNZ
+    saved = _parallel.PARALLEL_MIN, _parallel.CHUNK, elimination.SYSTEM_BATCH, _sparse.THREADED_NNZ
     try:  # force threads, many small ranges and batches of eliminated vertex systems
-        _parallel.PARALLEL_MIN, _parallel.CHUNK, propagation.SYSTEM_BATCH = 1, chunk, 1 + chunk % 4
+        _parallel.PARALLEL_MIN, _parallel.CHUNK, elimination.SYSTEM_BATCH = 1, chunk, 1 + chunk % 4
         _sparse.THREADED_NNZ = 0
         threaded = _space_arrays(build_space(uv, faces))
     finally:
-        _parallel.PARALLEL_MIN, _parallel.CHUNK, propagation.SYSTEM_BATCH, _sparse.THREADED_NNZ = saved
+        _parallel.PARALLEL_MIN, _parallel.CHUNK, elimination.SYSTEM_BATCH, _sparse.THREADED_NNZ = saved
     for name, value in inline.items():
         assert threaded[name].dtype == value.dtype, name
         np.testing.assert_array_equal(threaded[name], value, err_msg=f"{kind}: {name}")

@@ -129,11 +129,11 @@ def _base(tmp_path):
         (dict(control_points=None), r"missing required keys \['control_points'\]"),
         (dict(uv=np.zeros((9, 3))), r"uv must have shape \(V, 2\)"),
         (dict(faces=np.zeros((8, 4), np.int64)), r"faces must have shape \(F, 3\)"),
-        (dict(faces=np.full((8, 3), 0.5)), "integer vertex ids"),
+        (dict(faces=np.full((8, 3), 0.5)), "faces must hold integers"),
         (dict(control_points=np.zeros((8, 20, 3))), r"control_points must have shape \(8, 21, 3\)"),
         (dict(uv=np.full((9, 2), np.nan)), "NaN or infinite uv"),
         (dict(control_points=np.full((8, 21, 3), np.inf)), "NaN or infinite control points"),
-        (dict(faces=np.full((8, 3), 99, np.int64)), r"vertex ids outside \[0, 9\)"),
+        (dict(faces=np.full((8, 3), 99, np.int64)), r"faces refer to ids outside \[0, 9\)"),
         (dict(faces="flip"), "counter-clockwise"),
     ],
 )
@@ -205,3 +205,21 @@ def test_failed_save_leaves_nothing(tmp_path, poly_surface, monkeypatch):
         write_surface(tmp_path / "r.json", s.uv, s.faces, s.ctrl, extras={"bad": object()})
     assert not (tmp_path / "r.json").exists()
     assert os.listdir(tmp_path) == ["s.npz"]
+
+
+@pytest.mark.parametrize("name", ["s.npz", "s.json"])
+def test_save_writes_files_with_the_permissions_of_any_other_output(tmp_path, poly_surface, name):
+    """Like the CLI's outputs: 0o666 minus the umask for a new file, the old mode for a replaced one."""
+    s, _ = poly_surface
+    target = tmp_path / name
+    mask = os.umask(0o027)
+    try:
+        s.save(target)
+        assert target.stat().st_mode & 0o777 == 0o666 & ~0o027
+        target.chmod(0o604)
+        s.save(target)
+        assert target.stat().st_mode & 0o777 == 0o604
+    finally:
+        os.umask(mask)
+    assert SplineSurface.load(target).ctrl.tobytes() == s.ctrl.tobytes()
+    assert os.listdir(tmp_path) == [name]  # no temporary file left
