@@ -32,7 +32,7 @@ import matplotlib.tri as mtri  # noqa: E402
 from scipy.interpolate import CloughTocher2DInterpolator  # noqa: E402
 from scipy.spatial import Delaunay  # noqa: E402
 
-from trispline.fit.pipeline import FitWeights, fit_surface  # noqa: E402
+from trispline.fit import FitWeights, fit_surface  # noqa: E402
 from trispline.fit.datasets.franke import RENKA_BROWN, sample_points  # noqa: E402
 from trispline.spline.bernstein import basis  # noqa: E402
 from trispline.spline.testing.domains import orient_ccw  # noqa: E402

@@ -25,7 +25,7 @@ jax.config.update("jax_enable_x64", True)
 
 from scipy.interpolate import CloughTocher2DInterpolator  # noqa: E402
 
-from trispline.fit.pipeline import FitWeights, fit_surface  # noqa: E402
+from trispline.fit import FitWeights, fit_surface  # noqa: E402
 from trispline.fit.io import load_mesh  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -65,11 +65,7 @@ def run(path: Path, label: str, weights: FitWeights) -> dict:
     t_load = time.perf_counter() - t0
     res = fit_surface(V, F, param="harmonic", weights=weights)
     t1 = time.perf_counter()
-    out = Path(tempfile.mkdtemp()) / "surface.npz"
-    if res.surface is not None:
-        res.surface.save(out)
-    else:  # pragma: no cover
-        np.savez_compressed(out, uv=res.uv, faces=res.faces, control_points=res.ctrl)
+    res.surface.save(Path(tempfile.mkdtemp()) / "surface.npz")
     t_save = time.perf_counter() - t1
     # peer: Clough-Tocher on the same vertices (xy as domain)
     t2 = time.perf_counter()

@@ -19,7 +19,7 @@ import jax
 jax.config.update("jax_enable_x64", True)
 
 
-from trispline.fit.pipeline import fit_surface  # noqa: E402
+from trispline.fit import fit_surface  # noqa: E402
 from trispline.fit.io import read_mesh  # noqa: E402
 from trispline.spline.errors import InputError  # noqa: E402
 

@@ -13,9 +13,16 @@ optimistix's :class:`optimistix.GaussNewton` calls with the residual's Jacobian
 * ``mode="pcg"``: runs conjugate gradients on ``J^T J`` preconditioned by ``H^{-1}``
   -- for nonlinear or coordinate-coupling terms (an angle-based tilt), whose
   Gauss--Newton matrix differs from ``H`` by a small, low-rank-ish update.
+
+The solver reaches its factor through an integer handle (a traced array) and one
+module-level host callback, never through a static field or a closure: so a second
+problem of the same shapes reuses the compiled Gauss--Newton loop instead of tracing
+and compiling it again (1-2 s per small fit).
 """
 from __future__ import annotations
 
+import itertools
+import weakref
 from typing import Any
 
 import equinox as eqx
@@ -28,6 +35,9 @@ from .errors import X64Error
 
 __all__ = ["SparseCholesky", "FactorSolver", "require_x64"]
 
+#: Live factors by handle (weak: a factor lives as long as its owner keeps it).
+_FACTORS: "weakref.WeakValueDictionary[int, SparseCholesky]" = weakref.WeakValueDictionary()
+_HANDLES = itertools.count()
 
 
 def require_x64() -> None:
@@ -91,6 +101,8 @@ class SparseCholesky:
         H.sum_duplicates()
         H.sort_indices()
         self.n = int(H.shape[0])
+        self.handle = next(_HANDLES)
+        _FACTORS[self.handle] = self
         self.backend = _pick_backend(backend, self.n)
         if self.backend == "pardiso":
             import pypardiso
@@ -140,12 +152,19 @@ class SparseCholesky:
 
     def jax_solve(self, b: jax.Array) -> jax.Array:
         """``H^{-1} b`` inside traced JAX code (host callback)."""
-        return jax.pure_callback(
-            lambda v: self.solve(np.asarray(v)).astype(np.float64),
-            jax.ShapeDtypeStruct(b.shape, jnp.float64),
-            b,
-            vmap_method="sequential",
-        )
+        return _apply_factor(jnp.asarray(self.handle), b)
+
+
+def _host_solve(handle: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The one host callback: solve with the live factor ``handle``."""
+    return _FACTORS[int(handle)].solve(np.asarray(b)).astype(np.float64)
+
+
+def _apply_factor(handle: jax.Array, b: jax.Array) -> jax.Array:
+    """``H^{-1} b`` for ``b (n, ...)`` with the factor ``handle``, from traced code."""
+    x = jax.pure_callback(_host_solve, jax.ShapeDtypeStruct((b.shape[0], b.size // max(b.shape[0], 1)), jnp.float64),
+                          handle, b.reshape(b.shape[0], -1), vmap_method="sequential")
+    return x.reshape(b.shape)
 
 
 def _dot(a: jax.Array, b: jax.Array) -> jax.Array:
@@ -155,18 +174,32 @@ def _dot(a: jax.Array, b: jax.Array) -> jax.Array:
 class FactorSolver(lx.AbstractLinearSolver):
     """Least-squares solve ``J y ~ r`` through the normal equations with a fixed factor.
 
-    Attributes
+    Parameters
     ----------
     factor : SparseCholesky of ``H``, the (exact or approximate) ``J^T J`` per coordinate
+        (kept alive by the caller; the solver holds its handle only)
     mode : ``"direct"`` (``y = H^{-1} J^T r``) or ``"pcg"``
     rtol : relative residual tolerance of the preconditioned CG
     max_steps : CG iteration cap
     """
 
-    factor: SparseCholesky = eqx.field(static=True)
-    mode: str = eqx.field(static=True, default="direct")
-    rtol: float = eqx.field(static=True, default=1e-8)
-    max_steps: int = eqx.field(static=True, default=200)
+    handle: jax.Array
+    mode: str = eqx.field(static=True)
+    rtol: float = eqx.field(static=True)
+    max_steps: int = eqx.field(static=True)
+
+    def __init__(self, factor: SparseCholesky, mode: str = "direct", rtol: float = 1e-8, max_steps: int = 200):
+        if mode not in ("direct", "pcg"):
+            raise ValueError(f"mode must be 'direct' or 'pcg', got {mode!r}")
+        self.handle = jnp.asarray(factor.handle)
+        self.mode = mode
+        self.rtol = rtol
+        self.max_steps = max_steps
+
+    @property
+    def factor(self) -> SparseCholesky:
+        """The factor (outside traced code)."""
+        return _FACTORS[int(self.handle)]
 
     def init(self, operator: lx.AbstractLinearOperator, options: dict[str, Any]):
         return operator
@@ -175,8 +208,7 @@ class FactorSolver(lx.AbstractLinearSolver):
         J = state
         JT = J.transpose()
         g = JT.mv(vector)
-        shape = g.shape
-        apply_h_inv = lambda v: self.factor.jax_solve(v.reshape(self.factor.n, -1)).reshape(shape)  # noqa: E731
+        apply_h_inv = lambda v: _apply_factor(self.handle, v)  # noqa: E731
         if self.mode == "direct":
             y = apply_h_inv(g)
             return y, lx.RESULTS.successful, {"cg_steps": jnp.asarray(0)}

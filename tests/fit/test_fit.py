@@ -25,14 +25,6 @@ def domain_points(uv, faces):
     return np.einsum("gk,fkc->fgc", bary_grid(5), uv[faces])
 
 
-@pytest.fixture(scope="module")
-def franke_fit() -> tuple[np.ndarray, np.ndarray, FitResult]:
-    p = sample_points(150, seed=4)
-    F = orient_ccw(p, Delaunay(p).simplices)
-    V = np.column_stack([p, exponential(p[:, 0], p[:, 1])])
-    return V, F, fit_surface(V, F, uv=p)
-
-
 def test_height_field_keeps_xy_exactly(franke_fit):
     V, F, res = franke_fit
     dom = domain_points(V[:, :2], res.faces)

@@ -1,4 +1,5 @@
-"""Accuracy against the peers (issue 4, item 4): a small version of benchmarks/bench_accuracy.py.
+"""Accuracy against the peers (issue 4, item 4): a small version of benchmarks/bench_accuracy.py
+(its ``run_case`` through the ``accuracy_bench`` fixture of conftest.py).
 
 trispline's RMS error on a 101 x 101 grid must be at or below both scipy's
 CloughTocher2DInterpolator and matplotlib's CubicTriInterpolator(kind="min_E") on the
@@ -6,9 +7,6 @@ same Delaunay triangulation, and well below them at N = 400. The three functions
 the ones the earlier local-cubic estimates lost at N = 100 (ratios 1.27, 1.93, 1.47).
 """
 from __future__ import annotations
-
-import importlib.util
-from pathlib import Path
 
 import jax
 import numpy as np
@@ -21,17 +19,6 @@ from trispline.fit.datasets.franke import RENKA_BROWN  # noqa: E402
 from trispline.fit.targets import local_rbf_fit, padded_neighbours  # noqa: E402
 from trispline.spline.testing.domains import random_delaunay  # noqa: E402
 
-BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_accuracy.py"
-
-
-@pytest.fixture(scope="module")
-def bench():
-    spec = importlib.util.spec_from_file_location("bench_accuracy", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 # (function, N, largest allowed trispline RMS / best peer RMS); measured 0.58 0.29 0.96 0.22 0.87 0.36
 CASES = [
     ("exponential", 100, 0.8), ("exponential", 400, 0.5),
@@ -41,16 +28,16 @@ CASES = [
 
 
 @pytest.mark.parametrize("name,n,bound", CASES)
-def test_rms_at_or_below_both_peers(bench, name, n, bound):
-    r = bench.run_case(name, RENKA_BROWN[name], n, FitWeights())
+def test_rms_at_or_below_both_peers(accuracy_bench, name, n, bound):
+    r = accuracy_bench.run_case(name, RENKA_BROWN[name], n, FitWeights())
     best = min(r["CT"][0], r["minE"][0])
     assert r["trispline"][0] <= bound * best, (r["trispline"][0], r["CT"][0], r["minE"][0])
     assert r["c1"] < 1e-9
 
 
-def test_plain_thin_plate_loses_to_min_e(bench):
+def test_plain_thin_plate_loses_to_min_e(accuracy_bench):
     """Negative control: without the tilt/local targets the same comparison fails."""
-    r = bench.run_case("steep", RENKA_BROWN["steep"], 100, FitWeights(tilt=0.0, local=0.0))
+    r = accuracy_bench.run_case("steep", RENKA_BROWN["steep"], 100, FitWeights(tilt=0.0, local=0.0))
     assert r["trispline"][0] > r["minE"][0]
 
 
