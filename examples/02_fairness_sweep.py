@@ -37,7 +37,7 @@ from matplotlib.figure import Figure  # noqa: E402
 from trispline.spline.util.atomic import atomic_path  # noqa: E402
 from trispline.fit.pipeline import FitWeights, fit_surface  # noqa: E402
 from trispline.fit.render import Panel, render_panels  # noqa: E402
-from trispline.fit.datasets.synthetic import _ROT, scan_height, synthetic_scan  # noqa: E402
+from trispline.fit.datasets.synthetic import ROTATION, scan_height, synthetic_scan  # noqa: E402
 from trispline.spline.bernstein import bary_grid  # noqa: E402
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else os.environ.get("TRISPLINE_EXAMPLE_OUT", "example_output"))
@@ -55,7 +55,7 @@ def deviations(result) -> dict[str, float]:
     b = np.tile(bary, (len(faces), 1))
     S = result.surface.evaluate(fi, b)                         # (n, 3) spline points
     P = np.einsum("nk,nkd->nd", b, V[faces[fi]])               # same parameters on the mesh
-    local = S @ _ROT                                           # back to the unrotated frame
+    local = S @ ROTATION                                       # back to the unrotated frame
     d_true = local[:, 2] - scan_height(local[:, :2])           # vertical distance to the true shape
     d_mesh = np.linalg.norm(S - P, axis=1)
     return dict(dev_true_rms=float(np.sqrt(np.mean(d_true**2))), dev_true_max=float(np.abs(d_true).max()),

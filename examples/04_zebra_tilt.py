@@ -31,6 +31,7 @@ from PIL import Image  # noqa: E402
 from trispline.fit import render as rd  # noqa: E402
 from trispline.fit.pipeline import FitWeights, fit_surface  # noqa: E402
 from trispline.fit.datasets.synthetic import synthetic_scan  # noqa: E402
+from trispline.spline.patches import edge_samples  # noqa: E402
 
 args = [a for a in sys.argv[1:] if not a.startswith("--")]
 if "--docs" in sys.argv:
@@ -47,9 +48,8 @@ for name, weights in ((f"with tilt (tilt={FitWeights().tilt:g}, default)", FitWe
     fits[name] = fit_surface(V, F, weights=weights).surface
     print(f"fit {name}: {time.perf_counter() - t0:.1f} s")
 
-# look along the scan's mean normal, from 60 degrees above its plane
-n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]).sum(0)
-view = (float(np.degrees(np.arctan2(n[1], n[0]))), 60.0)
+# look along the scan's mean normal, from 60 degrees above the horizon
+view = rd.mean_normal_view(V, F, elevation=60.0)
 
 t0 = time.perf_counter()
 zebra = rd.draw_panels([rd.Panel(s, "zebra", title=name) for name, s in fits.items()], view=view, size=SIZE)
@@ -66,12 +66,8 @@ for name, s in fits.items():
     t = np.linspace(0.1, 0.9, 5)
     light = rd.zebra_light(rd.sample_surface(s, 2, curvature=False).points, view)
     side = []
-    for k in (0, 1):
-        f = tri.edge_faces[edges, k]
-        bary = np.zeros((edges.size, t.size, 3))
-        for end, w in ((0, 1 - t), (1, t)):
-            local = np.argmax(tri.faces[f] == tri.edges[edges, end][:, None], axis=1)
-            bary[np.arange(edges.size), :, local] = w
+    for k in (0, 1):  # the same points of every interior edge, seen from each of its two patches
+        f, bary = edge_samples(tri, edges, t, side=k)
         d = s.evaluate_derivatives(np.repeat(f, t.size), bary.reshape(-1, 3))
         side.append(rd.stripe_function(d.values, rd.unit_normals(d.du, d.dv), light))
     jump = np.nanmax(np.abs(side[0] - side[1]))

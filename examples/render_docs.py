@@ -11,8 +11,8 @@ Writes into docs/images/:
   fitted real mesh (``../shared/data/inspired_mesh.obj`` when present, else the synthetic scan);
 
 and prints the timing table (100k-patch surface, each mode, PyVista and the matplotlib
-fallback, and the older ``export.render_image`` as the peer). The zebra pictures with and
-without the tilt term come from ``python examples/04_zebra_tilt.py --docs``.
+fallback). The zebra pictures with and without the tilt term come from
+``python examples/04_zebra_tilt.py --docs``.
 """
 from __future__ import annotations
 
@@ -45,11 +45,6 @@ def graph(n: int, func) -> SplineSurface:
         uv, faces, lambda p: np.column_stack([p[:, 0], p[:, 1], func(p[:, 0], p[:, 1])])))
 
 
-def mean_normal_view(V: np.ndarray, F: np.ndarray, elevation: float = 60.0) -> tuple[float, float]:
-    n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]).sum(0)
-    return float(np.degrees(np.arctan2(n[1], n[0]))), elevation
-
-
 def pictures() -> None:
     IMAGES.mkdir(parents=True, exist_ok=True)
     # --- a kink breaks the stripes
@@ -69,7 +64,7 @@ def pictures() -> None:
     # --- the scan next to its fit
     V, F = synthetic_scan(800, seed=0)
     fit = fit_surface(V, F).surface
-    view = mean_normal_view(V, F, 45.0)
+    view = rd.mean_normal_view(V, F, elevation=45.0)
     rd.render_panels([rd.Panel(mesh=(V, F), title=f"scan: {F.shape[0]} triangles"),
                       rd.Panel(fit, "shaded", title=f"fitted C1 quintic spline ({fit.n_faces} patches)")],
                      IMAGES / "scan_vs_fit.png", view=view, size=(1200, 520))
@@ -86,7 +81,7 @@ def pictures() -> None:
     t0 = time.perf_counter()
     fit = fit_surface(V, F).surface
     print(f"fit {name}: {F.shape[0]} faces, {time.perf_counter() - t0:.1f} s")
-    view = mean_normal_view(V, F, 50.0)
+    view = rd.mean_normal_view(V, F, elevation=50.0)
     rd.render(fit, IMAGES / "real_curvature.png", "curvature", view=view, size=(900, 600),
               title=f"mean curvature of the fit of {name}")
     rd.render(fit, IMAGES / "real_deviation.png", "deviation", mesh=(V, F), view=view, size=(900, 600),
@@ -95,8 +90,6 @@ def pictures() -> None:
 
 
 def timing() -> None:
-    from trispline.fit.io.export import render_image
-
     s = graph(224, lambda u, v: 0.2 * (u - 0.5) ** 2 - 0.15 * (v - 0.4) ** 2 + 0.3 * u**3 * v**2 - 0.2 * v**4 * u)
     tess = s.tessellate(1)
     mesh = (tess.vertices, tess.triangles)
@@ -112,10 +105,6 @@ def timing() -> None:
             pic = rd.draw(s, mode, mesh=mesh if mode == "deviation" else None, size=(800, 600), backend=backend)
             dt = time.perf_counter() - t0
             print(f"| {mode} | {pic.backend} | {pic.stats['resolution']} | {pic.stats['triangles']:,} | {dt:.1f} |")
-    t0 = time.perf_counter()
-    render_image(s, "/tmp/trispline_peer.png", resolution=1, patch_lines=False)
-    print(f"| shaded (peer: export.render_image, mplot3d) | matplotlib | 1 | {s.n_faces:,} | "
-          f"{time.perf_counter() - t0:.1f} |")
 
 
 if __name__ == "__main__":

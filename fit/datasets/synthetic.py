@@ -15,13 +15,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import Delaunay
 
-__all__ = ["HOLE_CENTRE", "HOLE_RADIUS", "scan_height", "synthetic_scan"]
+__all__ = ["HOLE_CENTRE", "HOLE_RADIUS", "ROTATION", "scan_height", "synthetic_scan"]
 
 #: Centre and radius of the hole in the (pre-rotation) xy-plane.
 HOLE_CENTRE = np.array([0.35, -0.2])
 HOLE_RADIUS = 0.25
-#: Rotation applied last (about x by 25 degrees, then about z by 15 degrees).
-_ROT = (
+#: Rotation applied last (about x by 25 degrees, then about z by 15 degrees): ``V_scan = V @ ROTATION.T``.
+ROTATION = (
     np.array([[np.cos(0.26), -np.sin(0.26), 0.0], [np.sin(0.26), np.cos(0.26), 0.0], [0.0, 0.0, 1.0]])
     @ np.array([[1.0, 0.0, 0.0], [0.0, np.cos(0.44), -np.sin(0.44)], [0.0, np.sin(0.44), np.cos(0.44)]])
 )
@@ -91,5 +91,5 @@ def synthetic_scan(
     z = scan_height(xy) + rng.normal(0.0, noise, xy.shape[0]) if noise > 0 else scan_height(xy)
     V = np.column_stack([xy, z])
     if rotate:
-        V = V @ _ROT.T
+        V = V @ ROTATION.T
     return np.ascontiguousarray(V), np.ascontiguousarray(faces)

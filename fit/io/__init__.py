@@ -1,12 +1,35 @@
-"""Files in and out: meshes (OBJ, OFF, PLY, STL, GLB) and exports of fitted surfaces."""
-from .export import (
-    EXPORT_FORMATS, IMAGE_FORMATS, MESH_FORMATS, SURFACE_FORMATS, ExportFormatError, check_export_path,
-    export_control_net, export_mesh, export_surface,
-)
-from .mesh import SUPPORTED, MeshData, load_mesh, read_mesh
+"""Files in and out: meshes (OBJ, OFF, PLY, STL, GLB) and exports of fitted surfaces.
 
-__all__ = [
-    "SUPPORTED", "MeshData", "load_mesh", "read_mesh",
-    "EXPORT_FORMATS", "IMAGE_FORMATS", "MESH_FORMATS", "SURFACE_FORMATS", "ExportFormatError",
-    "check_export_path", "export_control_net", "export_mesh", "export_surface",
-]
+    from trispline.fit.io import read_mesh, export_surface
+
+:mod:`.mesh` reads meshes, :mod:`.export` writes surfaces, meshes, control nets and
+pictures, :mod:`.formats` names the output formats. The modules load on first use
+(trimesh and libigl only when a mesh is read or written), so that
+:mod:`trispline.fit.render` can check its PNG names through :mod:`.formats` cheaply.
+"""
+from __future__ import annotations
+
+import importlib
+
+_EXPORTS = {
+    "SUPPORTED": "mesh", "MeshData": "mesh", "load_mesh": "mesh", "read_mesh": "mesh",
+    "EXPORT_FORMATS": "formats", "IMAGE_FORMATS": "formats", "MESH_FORMATS": "formats",
+    "SURFACE_FORMATS": "formats", "check_export_path": "formats",
+    "export_control_net": "export", "export_mesh": "export", "export_surface": "export",
+}
+
+__all__ = sorted([*_EXPORTS, "ExportFormatError"])
+
+
+def __getattr__(name: str):
+    if name == "ExportFormatError":
+        from ..errors import ExportFormatError
+
+        return ExportFormatError
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(list(globals()) + __all__)

@@ -1,10 +1,10 @@
 """Export a :class:`SplineSurface`: meshes, control nets, surface files, pictures.
 
-    from trispline.fit.io.export import export_surface, export_control_net, render_image
+    from trispline.fit.io.export import export_surface, export_control_net
     export_surface(surface, "scan.ply", resolution=8)   # OBJ / PLY / STL / GLB / NPZ / JSON / PNG
     export_control_net(surface, "net.obj")              # control net as a triangle mesh
     export_control_net(surface, "net.obj", lines=True)  # ... or as line segments (OBJ 'l')
-    render_image(surface, "scan.png")                    # off-screen matplotlib picture
+    export_surface(surface, "scan.png", size=(800, 600))  # a shaded picture (trispline.fit.render)
 
 Meshes are the watertight tessellation of :func:`trispline.spline.tessellate.tessellate`
 (neighbouring patches share their boundary samples, so there are no cracks along
@@ -13,7 +13,7 @@ patch boundaries; vertex ``v`` of the mesh is the corner point of domain vertex
 ``process=False`` so nothing is merged or reordered (PLY is written here, binary
 in double precision; trimesh would store float32). GLB and STL store float32 by
 specification; STL stores face normals only and one copy of each corner per
-triangle. Every file is
+triangle. Pictures are drawn by :mod:`trispline.fit.render`. Every file is
 written atomically (:mod:`trispline.spline.util.atomic`).
 """
 from __future__ import annotations
@@ -24,11 +24,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from trispline.spline.index import DEGREE, EXPONENTS, NCTRL, index_of
+from trispline.spline.index import DEGREE, EXPONENTS, NCTRL, lattice_triangles
 from trispline.spline.tessellate import Tessellation
-
 from trispline.spline.util.atomic import AtomicOutputs
+
 from ..errors import ExportFormatError
+from .formats import EXPORT_FORMATS, IMAGE_FORMATS, MESH_FORMATS, SURFACE_FORMATS, check_export_path
 
 if TYPE_CHECKING:  # pragma: no cover
     import trimesh
@@ -38,28 +39,8 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = [
     "MESH_FORMATS", "SURFACE_FORMATS", "IMAGE_FORMATS", "EXPORT_FORMATS",
     "ExportFormatError", "check_export_path", "surface_mesh", "control_net",
-    "control_net_mesh", "export_mesh", "export_surface", "export_control_net", "render_image",
+    "control_net_mesh", "export_mesh", "export_surface", "export_control_net",
 ]
-
-#: Tessellated-mesh formats (through trimesh).
-MESH_FORMATS = (".obj", ".ply", ".stl", ".glb")
-#: Surface file formats (DESIGN.md §6).
-SURFACE_FORMATS = (".npz", ".json")
-#: Pictures (matplotlib, off-screen).
-IMAGE_FORMATS = (".png",)
-EXPORT_FORMATS = MESH_FORMATS + SURFACE_FORMATS + IMAGE_FORMATS
-
-
-
-def check_export_path(path: str | os.PathLike, formats: tuple[str, ...] = EXPORT_FORMATS) -> str:
-    """Return the lower-case suffix of ``path`` if it is one of ``formats``; else raise."""
-    suffix = Path(path).suffix.lower()
-    if suffix not in formats:
-        raise ExportFormatError(
-            f"cannot write {path}: unknown output format {suffix or '(no extension)'!r}; "
-            f"use one of {', '.join(formats)}"
-        )
-    return suffix
 
 
 # ------------------------------------------------------------------------- meshes
@@ -80,22 +61,6 @@ def surface_mesh(surface: "SplineSurface", resolution: int = 8) -> "trimesh.Trim
     """
     tess: Tessellation = surface.tessellate(resolution)
     return _trimesh(tess.vertices, tess.triangles, tess.normals)
-
-
-def _lattice_triangles() -> np.ndarray:
-    """(25, 3) storage indices of the control-net triangles of one patch (CCW like the face)."""
-    tris = []
-    n = DEGREE
-    for i in range(n, 0, -1):
-        for j in range(n - i + 1):
-            k = n - i - j
-            tris.append((index_of(i, j, k), index_of(i - 1, j + 1, k), index_of(i - 1, j, k + 1)))
-            if i >= 2:
-                tris.append((index_of(i - 1, j + 1, k), index_of(i - 2, j + 1, k + 1), index_of(i - 1, j, k + 1)))
-    return np.array(tris, np.int64)
-
-
-_LATTICE = _lattice_triangles()
 
 
 def control_net(surface: "SplineSurface") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -132,7 +97,8 @@ def control_net(surface: "SplineSurface") -> tuple[np.ndarray, np.ndarray, np.nd
     gid[:, inner] = nv + 4 * ne + 6 * np.arange(nf)[:, None] + np.arange(inner.size)[None, :]
     points = np.empty((nv + 4 * ne + 6 * nf, 3))
     points[gid.ravel()] = ctrl.reshape(-1, 3)
-    triangles = gid[:, _LATTICE].reshape(-1, 3)
+    # the control points' exponents are lattice(5), so its 25 triangles index the storage order
+    triangles = gid[:, lattice_triangles(DEGREE)].reshape(-1, 3)
     seg = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
     segments = np.unique(np.sort(seg, axis=1), axis=0)
     return points, triangles, segments
@@ -217,7 +183,9 @@ def export_surface(
 
     ``.obj .ply .stl .glb``: the tessellated mesh (``resolution`` steps per patch
     edge) with analytic normals; ``.npz .json``: the surface file; ``.png``: a
-    picture (:func:`render_image`, ``image_options`` passed on).
+    picture drawn by :func:`trispline.fit.render.draw` at ``resolution`` samples
+    per patch edge, shaded and seen along the surface's mean normal unless
+    ``image_options`` (``mode``, ``view``, ``size``, ``title``, ...) say otherwise.
     With ``outputs`` the file joins that group (committed by the caller), otherwise
     it is written atomically on its own.
     """
@@ -227,7 +195,7 @@ def export_surface(
         return _run(path, outputs, lambda tmp: _write_mesh(mesh, tmp, suffix, True))
     if suffix in SURFACE_FORMATS:
         return _run(path, outputs, lambda tmp: surface.save(tmp))
-    return _run(path, outputs, lambda tmp: render_image(surface, tmp, resolution=resolution, **image_options))
+    return _run(path, outputs, lambda tmp: _write_picture(surface, tmp, resolution, image_options))
 
 
 def export_control_net(
@@ -244,89 +212,11 @@ def export_control_net(
     return _run(path, outputs, lambda tmp: _write_mesh(mesh, tmp, suffix, False))
 
 
-# ------------------------------------------------------------------------ pictures
-def _auto_view(V: np.ndarray, T: np.ndarray, tilt: float, elev: float | None, azim: float | None
-               ) -> tuple[float, float]:
-    """Camera (elev, azim) in degrees: ``tilt`` degrees off the mean normal of the mesh."""
-    n = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]).sum(0)
-    n = n / (np.linalg.norm(n) or 1.0)
-    if n[2] < 0:
-        n = -n
-    side = np.cross(n, [0.0, 0.0, 1.0])
-    side = side / np.linalg.norm(side) if np.linalg.norm(side) > 1e-6 else np.array([0.0, -1.0, 0.0])
-    down = np.cross(n, side)  # in the surface, pointing away from +z
-    if down[2] > 0:
-        down = -down
-    t = np.radians(tilt)
-    eye = np.cos(t) * n + np.sin(t) * (0.8 * down + 0.6 * side)
-    e = float(np.degrees(np.arcsin(np.clip(eye[2], -1, 1))))
-    a = float(np.degrees(np.arctan2(eye[1], eye[0])))
-    return (e if elev is None else elev), (a if azim is None else azim)
+def _write_picture(surface: "SplineSurface", tmp: Path, resolution: int, options: dict[str, Any]) -> None:
+    """Draw ``surface`` with :mod:`trispline.fit.render` into the PNG file ``tmp`` (see :func:`export_surface`)."""
+    from .. import render  # imported when a picture is asked for: render builds on this package's formats
 
-
-def render_image(
-    surface: "SplineSurface", path: str | os.PathLike, *, resolution: int = 6,
-    data_points: np.ndarray | None = None, patch_lines: bool = True, title: str | None = None,
-    elev: float | None = None, azim: float | None = None, view_tilt: float = 50.0, zoom: float = 1.35, size: tuple[float, float] = (6.4, 4.8), dpi: int = 120,
-) -> Path:
-    """Render the surface off-screen (matplotlib Agg) to a PNG file at ``path``.
-
-    Shading is Lambertian from the tessellation's analytic normals (two-sided);
-    ``patch_lines`` draws the patch boundaries (the images of the domain edges);
-    ``data_points (n, 3)`` are drawn as dots (e.g. the fitted mesh's vertices).
-    Unless ``elev`` and ``azim`` (degrees) are given, the camera looks at the surface
-    ``view_tilt`` degrees off its mean normal, so the relief shows.
-    The file is written as given (wrap it in :mod:`trispline.spline.util.atomic` yourself,
-    or use :func:`export_surface`, which does).
-    """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-    from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
-
-    tess = surface.tessellate(resolution)
-    V, T, N = tess.vertices, tess.triangles, tess.normals
-    fig = Figure(figsize=size, dpi=dpi)
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot(projection="3d")
-    if elev is None or azim is None:
-        elev, azim = _auto_view(V, T, view_tilt, elev, azim)
-    ax.view_init(elev=elev, azim=azim)
-    # light from the viewer's upper left, in data coordinates
-    e, a = np.radians(elev + 25.0), np.radians(azim - 35.0)
-    light = np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
-    fn = N[T].mean(1)
-    fn /= np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-300)
-    diffuse = np.abs(fn @ light)
-    shade = 0.18 + 0.72 * diffuse + 0.25 * diffuse**24  # ambient + diffuse + a soft highlight
-    base = np.array([0.42, 0.62, 0.92])
-    colors = np.clip(shade[:, None] * base[None, :], 0, 1)
-    # edges in the face colour hide the anti-aliasing seams between the small triangles
-    ax.add_collection3d(Poly3DCollection(V[T], facecolors=colors, edgecolors=colors, linewidths=0.25))
-    if patch_lines:
-        tri = surface.triangulation
-        t = np.linspace(0.0, 1.0, max(resolution, 2) + 1)
-        f = np.where(tri.edge_faces[:, 0] >= 0, tri.edge_faces[:, 0], tri.edge_faces[:, 1])
-        k = np.where(tri.edge_faces[:, 0] >= 0, tri.edge_opposite[:, 0], tri.edge_opposite[:, 1])
-        ne, m = f.size, t.size
-        bary = np.zeros((ne, m, 3))
-        rows = np.arange(ne)[:, None]
-        bary[rows, np.arange(m)[None, :], ((k + 1) % 3)[:, None]] = 1.0 - t
-        bary[rows, np.arange(m)[None, :], ((k + 2) % 3)[:, None]] = t
-        curve = surface.evaluate(np.repeat(f, m), bary.reshape(-1, 3)).reshape(ne, m, 3)
-        segs = np.stack([curve[:, :-1], curve[:, 1:]], axis=2).reshape(-1, 2, 3)
-        ax.add_collection3d(Line3DCollection(segs, colors=[(0.1, 0.1, 0.2, 0.35)], linewidths=0.4))
-    if data_points is not None and len(data_points):
-        P = np.asarray(data_points, float)
-        ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=1.5, c="k", depthshade=False)
-    lo, hi = V.min(0), V.max(0)
-    ctr, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    ax.set_xlim(ctr[0] - half[0], ctr[0] + half[0])
-    ax.set_ylim(ctr[1] - half[1], ctr[1] + half[1])
-    ax.set_zlim(ctr[2] - half[2], ctr[2] + half[2])
-    ax.set_box_aspect(np.maximum(hi - lo, 1e-3 * float((hi - lo).max())), zoom=zoom)
-    ax.set_axis_off()
-    if title:
-        ax.set_title(title)
-    fig.subplots_adjust(left=0, right=1, bottom=0, top=0.95 if title else 1)
-    fig.savefig(str(path), format="png")
-    return Path(path)
+    corners = surface.tessellate(1)  # corner points and faces: for a fit, the data mesh itself
+    opts: dict[str, Any] = dict(mode="shaded", view=render.mean_normal_view(corners.vertices, corners.triangles))
+    opts.update(options)
+    render.write_png(render.draw(surface, resolution=resolution, **opts).image, tmp)

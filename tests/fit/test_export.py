@@ -16,7 +16,7 @@ from trispline.fit.io import export as ex
 from trispline.spline.util.atomic import AtomicOutputs, OutputError, atomic_path, write_text
 from trispline.fit.datasets.synthetic import HOLE_RADIUS, synthetic_scan
 from trispline.param import validate_mesh
-from trispline.spline.index import CORNER, EXPONENTS
+from trispline.spline.index import CORNER, DEGREE, EXPONENTS, lattice_triangles
 from trispline.spline.continuity import continuity_report
 from trispline.spline.testing.domains import random_delaunay
 from trispline.spline.errors import InputError
@@ -59,7 +59,7 @@ def test_control_net_shares_points_and_reproduces_every_patch(surface):
     assert points.shape == (tri.n_vertices + 4 * tri.n_edges + 6 * tri.n_faces, 3)
     assert triangles.shape == (25 * tri.n_faces, 3)
     # every lattice triangle's corners are the patch's own control points
-    lattice = ex._LATTICE
+    lattice = lattice_triangles(DEGREE)
     np.testing.assert_array_equal(points[triangles].reshape(tri.n_faces, 25, 3, 3), surface.ctrl[:, lattice])
     # point v is the corner point of domain vertex v
     np.testing.assert_array_equal(points[tri.faces.ravel()], surface.ctrl[:, CORNER].reshape(-1, 3))
@@ -77,7 +77,7 @@ def test_control_net_shares_points_and_reproduces_every_patch(surface):
 
 
 def test_lattice_has_25_distinct_triangles():
-    lat = ex._LATTICE
+    lat = lattice_triangles(DEGREE)
     assert lat.shape == (25, 3)
     assert np.unique(np.sort(lat, axis=1), axis=0).shape[0] == 25
     assert set(lat.ravel().tolist()) == set(range(21))
@@ -178,6 +178,27 @@ def test_render_png(surface, tmp_path):
     p = ex.export_surface(surface, tmp_path / "s.png", resolution=3, title="test")
     data = p.read_bytes()
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
+    assert _no_temp_files(tmp_path) == []
+
+
+def test_png_is_drawn_by_render_facing_the_mean_normal(surface, tmp_path):
+    """One renderer: the exported picture is trispline.fit.render's shaded picture, seen along
+    the mean normal of the corner mesh, with the options passed on."""
+    from PIL import Image
+
+    from trispline.fit import render as rd
+
+    p = ex.export_surface(surface, tmp_path / "s.png", resolution=2, size=(240, 160), backend="matplotlib")
+    corners = surface.tessellate(1)
+    want = rd.draw(surface, "shaded", view=rd.mean_normal_view(corners.vertices, corners.triangles),
+                   resolution=2, size=(240, 160), backend="matplotlib").image
+    with Image.open(p) as im:
+        np.testing.assert_array_equal(np.asarray(im.convert("RGB")), want)
+    p = ex.export_surface(surface, tmp_path / "z.png", resolution=2, size=(240, 160), backend="matplotlib",
+                          mode="zebra", view="top")
+    with Image.open(p) as im:
+        np.testing.assert_array_equal(np.asarray(im.convert("RGB")), rd.draw(
+            surface, "zebra", view="top", resolution=2, size=(240, 160), backend="matplotlib").image)
     assert _no_temp_files(tmp_path) == []
 
 

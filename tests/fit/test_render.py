@@ -17,7 +17,10 @@ from PIL import Image
 
 from trispline.fit import render as rd
 from trispline.fit.cli import render as render_cli
+from trispline.fit.render.backends import pyvista as pyvista_backend
+from trispline.fit.render.backends import pyvista_unusable
 from trispline.spline.index import index_of
+from trispline.spline.patches import edge_samples
 from trispline.spline.continuity import continuity_report
 from trispline.spline.testing.domains import grid, random_delaunay
 from trispline.spline.errors import InputError
@@ -25,7 +28,7 @@ from trispline.spline.polynomial import polynomial_control_net
 from trispline.spline.propagation import build_space
 from trispline.spline.surface import SplineSurface
 
-HAVE_PYVISTA = rd._pyvista_usable() is None
+HAVE_PYVISTA = pyvista_unusable() is None
 needs_pyvista = pytest.mark.skipif(not HAVE_PYVISTA, reason="pyvista/vtk not importable")
 BACKENDS = (["pyvista"] if HAVE_PYVISTA else []) + ["matplotlib"]
 
@@ -68,19 +71,12 @@ def broken(surface: SplineSurface, edge: int, delta: float) -> SplineSurface:
     return SplineSurface(surface.uv, surface.faces, ctrl)
 
 
-def edge_samples(surface: SplineSurface, edge: int, m: int = 9) -> tuple[tuple, tuple]:
+def both_sides(surface: SplineSurface, edge: int, m: int = 9) -> tuple[tuple, tuple]:
     """``(face, bary)`` of ``m`` points along ``edge`` (ends excluded), from each side."""
-    tri = surface.triangulation
-    t = np.linspace(0.05, 0.95, m)
-    r, q = tri.edges[edge]
     out = []
     for side in (0, 1):
-        f = int(tri.edge_faces[edge, side])
-        b = np.zeros((m, 3))
-        local = tri.faces[f]
-        b[:, int(np.flatnonzero(local == r)[0])] = 1 - t
-        b[:, int(np.flatnonzero(local == q)[0])] = t
-        out.append((np.full(m, f), b))
+        f, b = edge_samples(surface.triangulation, np.array([edge]), np.linspace(0.05, 0.95, m), side=side)
+        out.append((np.repeat(f, m), b[0]))
     return out[0], out[1]
 
 
@@ -88,7 +84,7 @@ def stripe_jumps(surface: SplineSurface, light: rd.ZebraLight, edges) -> np.ndar
     """Largest highlight-coordinate jump across each of ``edges`` (in stripe periods)."""
     jumps = []
     for e in edges:
-        (fa, ba), (fb, bb) = edge_samples(surface, int(e))
+        (fa, ba), (fb, bb) = both_sides(surface, int(e))
         da = surface.evaluate_derivatives(fa, ba)
         db = surface.evaluate_derivatives(fb, bb)
         np.testing.assert_allclose(da.values, db.values, atol=1e-12)  # C0 either way
@@ -398,7 +394,7 @@ def test_fallback_when_vtk_fails_at_render_time(monkeypatch):
     def boom(*a, **k):
         raise RuntimeError("no OpenGL context")
 
-    monkeypatch.setattr(rd.core, "_draw_pyvista", boom)
+    monkeypatch.setattr(pyvista_backend, "draw", boom)
     s = graph_surface(GENTLE, n=2)
     with pytest.warns(rd.RenderFallbackWarning, match="no OpenGL context"):
         pic = rd.draw(s, "shaded", size=(120, 100))
@@ -463,6 +459,20 @@ def test_validation_errors(tmp_path):
         rd.render(s, tmp_path / "nofolder" / "x.png")
     assert list(tmp_path.iterdir()) == []  # nothing written by any failed call
     assert issubclass(rd.RenderError, InputError)
+
+
+def test_mean_normal_view_faces_the_side_the_mesh_faces():
+    # a plane tilted toward +x,-y: the camera's azimuth is the normal's, at the elevation asked for
+    V = np.array([[0.0, 0, 0], [1, 0, 0.3], [0, 1, -0.4], [1, 1, -0.1]])
+    F = np.array([[0, 1, 3], [0, 3, 2]])
+    n = np.array([-0.3, 0.4, 1.0])
+    v = rd.mean_normal_view(V, F, elevation=40.0)
+    np.testing.assert_allclose(v.azimuth, np.degrees(np.arctan2(n[1], n[0])))
+    assert v.elevation == 40.0 and rd.mean_normal_view(V, F) == rd.View(v.azimuth, 30.0)
+    # the view turns with the mesh: rotate it about z by 70 degrees
+    c, s_ = np.cos(np.radians(70)), np.sin(np.radians(70))
+    Rz = np.array([[c, -s_, 0], [s_, c, 0], [0, 0, 1]])
+    np.testing.assert_allclose(rd.mean_normal_view(V @ Rz.T, F, 40.0).toward, Rz @ v.toward, atol=1e-12)
 
 
 def test_stored_data_vertices_are_the_default_deviation_mesh():
@@ -542,7 +552,7 @@ def test_cli_bad_files(surface_file, tmp_path, capsys):
 
 
 def test_cli_wired_into_trispline_if_registered(surface_file, tmp_path):
-    import trispline.fit.cli.app as cli
+    import trispline.fit.cli as cli
 
     parser = cli.build_parser()
     sub = next(a for a in parser._subparsers._group_actions)  # noqa: SLF001

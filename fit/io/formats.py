@@ -1,0 +1,35 @@
+"""The output formats trispline writes, chosen by file suffix, and the check of an output name.
+
+    check_export_path("scan.ply")                    # ".ply"
+    check_export_path("x.jpg", IMAGE_FORMATS)         # ExportFormatError: use one of .png
+
+Kept apart from :mod:`.export` so that :mod:`trispline.fit.render`, which export
+draws its pictures with, can check its PNG names without importing export.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ..errors import ExportFormatError
+
+__all__ = ["MESH_FORMATS", "SURFACE_FORMATS", "IMAGE_FORMATS", "EXPORT_FORMATS", "check_export_path"]
+
+#: Tessellated-mesh formats (through trimesh).
+MESH_FORMATS = (".obj", ".ply", ".stl", ".glb")
+#: Surface file formats (DESIGN.md §6).
+SURFACE_FORMATS = (".npz", ".json")
+#: Pictures (:mod:`trispline.fit.render`).
+IMAGE_FORMATS = (".png",)
+EXPORT_FORMATS = MESH_FORMATS + SURFACE_FORMATS + IMAGE_FORMATS
+
+
+def check_export_path(path: str | os.PathLike, formats: tuple[str, ...] = EXPORT_FORMATS) -> str:
+    """Return the lower-case suffix of ``path`` if it is one of ``formats``; else raise."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in formats:
+        raise ExportFormatError(
+            f"cannot write {path}: unknown output format {suffix or '(no extension)'!r}; "
+            f"use one of {', '.join(formats)}"
+        )
+    return suffix
