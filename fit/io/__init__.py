@@ -14,18 +14,14 @@ import importlib
 _EXPORTS = {
     "SUPPORTED": "mesh", "MeshData": "mesh", "load_mesh": "mesh", "read_mesh": "mesh",
     "EXPORT_FORMATS": "formats", "IMAGE_FORMATS": "formats", "MESH_FORMATS": "formats",
-    "SURFACE_FORMATS": "formats", "check_export_path": "formats",
+    "SURFACE_FORMATS": "formats", "check_export_path": "formats", "ExportFormatError": "formats",
     "export_control_net": "export", "export_mesh": "export", "export_surface": "export",
 }
 
-__all__ = sorted([*_EXPORTS, "ExportFormatError"])
+__all__ = sorted(_EXPORTS)
 
 
 def __getattr__(name: str):
-    if name == "ExportFormatError":
-        from ..errors import ExportFormatError
-
-        return ExportFormatError
     if name in _EXPORTS:
         return getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

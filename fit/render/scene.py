@@ -125,7 +125,7 @@ def wrap_legend(lines: list[str] | tuple[str, ...], chars: float) -> str:
     return "\n".join(w for line in lines for w in textwrap.wrap(line, width, subsequent_indent="  "))
 
 
-def _fmt(x: float | None) -> str:
+def _fmt(x: float) -> str:
     return f"{x:.3g}"
 
 
