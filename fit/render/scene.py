@@ -27,8 +27,9 @@ if TYPE_CHECKING:  # pragma: no cover
     from trispline.spline.surface import SplineSurface
 
 __all__ = [
-    "MODES", "PATCH_LINES_MAX", "CURVATURE_PERCENTILE", "Layer", "Scene", "Panel", "Picture",
-    "check_mode", "panel_scene", "surface_scene", "wrap_legend",
+    "MODES", "PATCH_LINES_MAX", "CURVATURE_PERCENTILE", "SURFACE_RGB", "DATA_RGB", "NET_RGB", "BACKGROUND",
+    "NAN_RGB", "STRIPE_RGB", "Layer", "Scene", "Panel", "Picture", "check_mode", "panel_scene",
+    "surface_scene", "wrap_legend",
 ]
 
 MODES = ("shaded", "zebra", "curvature", "deviation", "controlnet")
@@ -37,6 +38,8 @@ PATCH_LINES_MAX = 2000
 #: Robust colour range of curvature maps: this percentile of |value|.
 CURVATURE_PERCENTILE = 98.0
 
+#: Colours (RGB in [0, 1]) of the surface, a data mesh, the control net, the background,
+#: undefined values, and the white and black zebra stripes; both backends draw with them.
 SURFACE_RGB = (0.55, 0.70, 0.95)
 DATA_RGB = (0.80, 0.78, 0.72)
 NET_RGB = (0.75, 0.12, 0.10)
