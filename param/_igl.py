@@ -4,6 +4,8 @@ from __future__ import annotations
 import igl
 import numpy as np
 
+from trispline.spline.checks import as_array, check_ids
+
 
 def circle_boundary(V: np.ndarray, loop: np.ndarray) -> np.ndarray:
     """Positions ``(n, 2)`` of ``loop`` on the unit circle, spaced by 3D arc length."""
@@ -40,12 +42,14 @@ def composite_harmonic(UV0: np.ndarray, F: np.ndarray, b: np.ndarray, bc: np.nda
 
 
 def closest_points(P: np.ndarray, V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Exact closest points on the mesh ``(V, F)`` (libigl's AABB tree).
+    """Exact closest points to ``P (n, 3)`` on the mesh ``V (nv, 3)``, ``F (nf, 3)`` (libigl's AABB tree).
 
     Returns ``(squared distance (n,), face index (n,), closest point (n, 3))``.
     """
+    P = as_array(P, "P", (None, 3), finite=True)
+    V = as_array(V, "V", (None, 3))
+    F = check_ids(as_array(F, "F", (None, 3), integer=True, min_rows=1), "F", V.shape[0])
     sq, idx, C = igl.point_mesh_squared_distance(
-        np.ascontiguousarray(P, dtype=np.float64), np.ascontiguousarray(V, dtype=np.float64),
-        np.ascontiguousarray(F, dtype=np.int64),
+        np.ascontiguousarray(P), np.ascontiguousarray(V), np.ascontiguousarray(F),
     )
     return np.asarray(sq), np.asarray(idx, dtype=np.int64), np.asarray(C)

@@ -2,28 +2,32 @@
 
 Every method ends the same way: the map is mirrored if it came out globally
 clockwise (faces are never reordered or reoriented), checked for flipped and
-degenerate triangles, repaired if needed, normalised (centred at the bounding
-box centre, farthest vertex at distance 1) and checked again with the exact test
-of :class:`trispline.spline.topology.Triangulation`. A folded domain is never
-returned: :class:`MeshError` instead.
+degenerate triangles, repaired if needed (:mod:`trispline.param.repair`), normalised
+(centred at the bounding box centre, farthest vertex at distance 1) and checked again
+with the exact test of :class:`trispline.spline.topology.Triangulation`. A folded
+domain is never returned: :class:`MeshError` instead.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
-from trispline.spline.errors import first_few
-from trispline.spline.topology import MIN_RELATIVE_AREA, signed_areas
+from trispline.spline.checks import as_array
+from trispline.spline.errors import InputError, first_few
+from trispline.spline.topology import signed_areas
 
 from . import _igl
 from .distortion import face_distortion, summarize
 from .errors import MeshError
+from .repair import fill_holes, fold_mask, polygon_area, repair_folds
 from .validate import ValidatedMesh, validate_mesh
 
 METHODS = ("harmonic", "lscm", "uv")
+#: The parameterization of :func:`parameterize` and of ``fit_surface`` / ``trispline fit``
+#: when none is named: LSCM keeps triangle shapes, which the C1 conditions depend on
+#: (docs/param.md compares the methods on real meshes).
+DEFAULT_METHOD = "lscm"
 
 
 @dataclass(frozen=True)
@@ -84,57 +88,12 @@ class Parameterization:
     report: dict = field(default_factory=dict)
 
 
-# ----------------------------------------------------------------- building blocks
-def fill_holes(V: np.ndarray, F: np.ndarray, holes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Close each hole loop with a fan to a new vertex at the loop's centroid.
-
-    ``holes`` are loops with the surface on their left (as from
-    :func:`validate_mesh`). Returns ``(V_ext (nv + h, 3), F_ext (nf + sum len, 3))``;
-    the original vertices and faces come first, unchanged.
-    """
-    if not holes:
-        return V, F
-    nv = V.shape[0]
-    centres = np.stack([V[h].mean(0) for h in holes])
-    sizes = np.array([len(h) for h in holes])
-    cat = np.concatenate(holes)
-    nxt = np.concatenate([np.roll(h, -1) for h in holes])
-    cid = nv + np.repeat(np.arange(len(holes)), sizes)
-    extra = np.column_stack([nxt, cat, cid])
-    return np.concatenate([V, centres]), np.concatenate([F, extra])
-
-
-def tutte(F: np.ndarray, nv: int, b: np.ndarray, bc: np.ndarray) -> np.ndarray:
-    """Uniform-weight (Tutte) embedding ``(nv, 2)`` with vertices ``b`` fixed at ``bc``.
-
-    Fold-free for a disk triangulation whose boundary ``bc`` is strictly convex
-    (Floater 2003).
-    """
-    r = np.concatenate([F[:, 0], F[:, 1], F[:, 2], F[:, 1], F[:, 2], F[:, 0]])
-    c = np.concatenate([F[:, 1], F[:, 2], F[:, 0], F[:, 0], F[:, 1], F[:, 2]])
-    A = sp.coo_matrix((np.ones(r.size), (r, c)), shape=(nv, nv)).tocsr()
-    A.data[:] = 1.0  # duplicates (interior edges) summed to 2 -> adjacency
-    L = sp.diags(np.asarray(A.sum(1)).ravel()) - A
-    fixed = np.zeros(nv, bool)
-    fixed[b] = True
-    free = np.flatnonzero(~fixed)
-    out = np.zeros((nv, 2))
-    out[b] = bc
-    if free.size:
-        Lff = L[free][:, free].tocsc()
-        rhs = -(L[free][:, b] @ bc)
-        # COLAMD: 0.3 s on a 50k-vertex scan, where MMD_AT_PLUS_A took 19.7 s (measured)
-        out[free] = spla.splu(Lff, permc_spec="COLAMD").solve(np.asfortranarray(rhs))
-    return out
-
-
-def fold_mask(uv: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(flipped (nf,), degenerate (nf,))`` masks, with Triangulation's relative area test."""
-    a = signed_areas(uv, F)
-    scale = max(np.abs(a).mean(), np.finfo(float).tiny)
-    flipped = a < 0
-    degenerate = ~flipped & (a <= MIN_RELATIVE_AREA * scale)
-    return flipped, degenerate
+# ----------------------------------------------------------------------- methods
+def harmonic_uv(V: np.ndarray, F: np.ndarray, loop: np.ndarray) -> np.ndarray:
+    """Harmonic map ``(nv, 2)``: ``loop (n,)`` onto the unit circle spaced by 3D arc length,
+    the other vertices by ``igl.harmonic`` (cotangent weights). Holes other than ``loop``
+    stay free (:func:`parameterize` fills them first)."""
+    return _igl.harmonic(V, F, loop, _igl.circle_boundary(V, loop))
 
 
 def normalise(raw: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
@@ -154,21 +113,12 @@ def far_apart(V: np.ndarray, loop: np.ndarray) -> tuple[int, int]:
     return int(loop[i]), int(loop[j])
 
 
-def polygon_area(P: np.ndarray) -> float:
-    """Signed area of a closed polygon ``(n, 2)`` (positive if CCW)."""
-    x, y = P[:, 0], P[:, 1]
-    return 0.5 * float((x * np.roll(y, -1) - np.roll(x, -1) * y).sum())
-
-
-# ----------------------------------------------------------------------- methods
 def _raw_map(vm: ValidatedMesh, method: str, uv: np.ndarray | None) -> np.ndarray:
     V, F = vm.V, vm.F
     nv = V.shape[0]
     if method == "harmonic":
-        outer = vm.boundary_loops[0]
         Vx, Fx = fill_holes(V, F, vm.boundary_loops[1:])
-        bc = _igl.circle_boundary(Vx, outer)
-        return _igl.harmonic(Vx, Fx, outer, bc)[:nv]
+        return harmonic_uv(Vx, Fx, vm.boundary_loops[0])[:nv]
     if method == "lscm":
         i, j = far_apart(V, vm.boundary_loops[0])
         d = float(np.linalg.norm(V[i] - V[j]))
@@ -176,9 +126,10 @@ def _raw_map(vm: ValidatedMesh, method: str, uv: np.ndarray | None) -> np.ndarra
     # method == "uv"
     if uv is None:
         return V[:, :2].copy()
-    uv = np.asarray(uv, dtype=np.float64)
-    if uv.shape != (nv, 2):
-        raise MeshError(f"uv must have shape ({nv}, 2) (one per vertex), got {uv.shape}", ["uv_shape"])
+    try:
+        uv = as_array(uv, "uv", (nv, 2))
+    except InputError as exc:
+        raise MeshError(f"{exc} (one per vertex)", ["uv_shape"]) from None
     if not np.isfinite(uv).all():
         raise MeshError(f"non-finite uv at vertices {first_few(np.flatnonzero(~np.isfinite(uv).all(1)))}",
                         ["non_finite"])
@@ -195,35 +146,10 @@ def _height_axes_hint(vm: ValidatedMesh) -> str:
     return ""
 
 
-def _repair(vm: ValidatedMesh, raw: np.ndarray, method: str) -> tuple[np.ndarray, str]:
-    """A fold-free replacement for ``raw``: the method's outer boundary reached by a
-    composite harmonic map from a Tutte embedding, else the Tutte embedding itself."""
-    V, F = vm.V, vm.F
-    nv = V.shape[0]
-    outer = vm.boundary_loops[0]
-    Vx, Fx = fill_holes(V, F, vm.boundary_loops[1:])
-    circle = _igl.circle_boundary(Vx, outer)
-    base = tutte(Fx, Vx.shape[0], outer, circle)
-    if method != "harmonic":
-        target = raw[outer]
-        if polygon_area(target) > 0:
-            scale = np.sqrt(polygon_area(target) / np.pi)
-            centre = target.mean(0)
-            try:
-                cand = _igl.composite_harmonic(base, Fx, outer, (target - centre) / scale)
-            except Exception:  # noqa: BLE001 - igl may fail on a self-overlapping target
-                cand = None
-            if cand is not None and np.isfinite(cand).all():
-                fl, dg = fold_mask(cand, Fx)
-                if not (fl | dg).any():
-                    return cand[:nv] * scale + centre, "composite_harmonic"
-    return base[:nv], "tutte"
-
-
 def parameterize(
     V: np.ndarray,
     F: np.ndarray,
-    method: str = "harmonic",
+    method: str = DEFAULT_METHOD,
     *,
     uv: np.ndarray | None = None,
     repair: bool = True,
@@ -234,10 +160,10 @@ def parameterize(
     ----------
     V : (nv, 3) float64
     F : (nf, 3) int
-    method : {"harmonic", "lscm", "uv"}
-        ``harmonic``: outer loop to the unit circle by arc length, interior
-        harmonic (cotangent weights), holes filled for the solve. ``lscm``: least
-        squares conformal, two far-apart boundary vertices pinned, free boundary.
+    method : {"lscm", "harmonic", "uv"}
+        ``lscm`` (:data:`DEFAULT_METHOD`): least squares conformal, two far-apart boundary
+        vertices pinned, free boundary. ``harmonic``: outer loop to the unit circle by arc
+        length, interior harmonic (cotangent weights), holes filled for the solve.
         ``uv``: the given ``uv`` (e.g. OBJ texture coordinates), or ``V[:, :2]``
         when ``uv`` is None (height fields).
     uv : (nv, 2) float64, optional
@@ -258,31 +184,51 @@ def parameterize(
     if uv is not None and method != "uv":
         raise MeshError(f"uv was given but method is {method!r}; use method='uv'", ["method"])
     vm = validate_mesh(V, F)
-    Fv = vm.F
     messages = list(vm.messages)
     raw = _raw_map(vm, method, uv)
     if not np.isfinite(raw).all():
         bad = np.flatnonzero(~np.isfinite(raw).all(1))
         raise MeshError(f"the {method} map produced non-finite uv at vertices {first_few(bad)}",
                         ["degenerate_map"])
-    mirrored = bool(signed_areas(raw, Fv).sum() < 0)
+    mirrored = bool(signed_areas(raw, vm.F).sum() < 0)
     if mirrored:
         raw = raw * np.array([-1.0, 1.0])
         messages.append(f"the {method} map came out clockwise; mirrored u")
-    flipped, degen = fold_mask(raw, Fv)
-    n_flip, n_deg = int(flipped.sum()), int(degen.sum())
-    repaired = None
-    if n_flip or n_deg:
-        what = f"{n_flip} flipped and {n_deg} degenerate triangles (first: " \
-               f"{', '.join(str(int(i)) for i in np.flatnonzero(flipped | degen)[:5])})"
-        hint = _height_axes_hint(vm) if method == "uv" and uv is None else ""
-        if not repair:
-            raise MeshError(f"the {method} parameterization folds {n_flip + n_deg} triangles: {what}; "
-                            f"enable repair or choose another method{hint}", ["folded"])
-        raw, repaired = _repair(vm, raw, method)
-        messages.append(f"the {method} map had {what}; repaired with a {repaired} map{hint}")
+    raw, repaired, folds = _unfold(vm, raw, method, uv is None, repair, messages)
     uvn, centre, scale = normalise(raw)
-    flipped, degen = fold_mask(uvn, Fv)
+    _refuse_folds(uvn, vm.F, method, repaired)
+    boundary = max(vm.boundary_loops, key=lambda l: abs(polygon_area(uvn[l])))
+    dist = summarize(*face_distortion(vm.V, vm.F, uvn))
+    dist["flipped_before_repair"], dist["degenerate_before_repair"] = folds
+    return Parameterization(
+        uv=uvn, faces=vm.F, method=method, boundary=boundary,
+        transform=UVTransform(centre=centre, scale=scale, mirrored=mirrored),
+        distortion=dist, repaired=repaired, messages=messages, report=vm.report,
+    )
+
+
+def _unfold(vm: ValidatedMesh, raw: np.ndarray, method: str, no_uv: bool, repair: bool,
+            messages: list[str]) -> tuple[np.ndarray, str | None, tuple[int, int]]:
+    """``(map, repair name or None, (flipped, degenerate) counts)``: ``raw`` itself when it does
+    not fold, else its repair (reported in ``messages``); raises when folded and not ``repair``."""
+    flipped, degen = fold_mask(raw, vm.F)
+    n_flip, n_deg = int(flipped.sum()), int(degen.sum())
+    if not (n_flip or n_deg):
+        return raw, None, (n_flip, n_deg)
+    what = f"{n_flip} flipped and {n_deg} degenerate triangles (first: " \
+           f"{', '.join(str(int(i)) for i in np.flatnonzero(flipped | degen)[:5])})"
+    hint = _height_axes_hint(vm) if method == "uv" and no_uv else ""
+    if not repair:
+        raise MeshError(f"the {method} parameterization folds {n_flip + n_deg} triangles: {what}; "
+                        f"enable repair or choose another method{hint}", ["folded"])
+    raw, repaired = repair_folds(vm, raw, method)
+    messages.append(f"the {method} map had {what}; repaired with a {repaired} map{hint}")
+    return raw, repaired, (n_flip, n_deg)
+
+
+def _refuse_folds(uvn: np.ndarray, F: np.ndarray, method: str, repaired: str | None) -> None:
+    """The last check on the normalised map: a folded domain is never returned."""
+    flipped, degen = fold_mask(uvn, F)
     if (flipped | degen).any():
         bad = np.flatnonzero(flipped | degen)
         raise MeshError(
@@ -292,14 +238,3 @@ def parameterize(
             + "; the mesh may have near-degenerate faces: clean it or try another method",
             ["folded"],
         )
-    loops = vm.boundary_loops
-    boundary = max(loops, key=lambda l: abs(polygon_area(uvn[l])))
-    angle, area = face_distortion(vm.V, Fv, uvn)
-    dist = summarize(angle, area)
-    dist["flipped_before_repair"] = n_flip
-    dist["degenerate_before_repair"] = n_deg
-    return Parameterization(
-        uv=uvn, faces=Fv, method=method, boundary=boundary,
-        transform=UVTransform(centre=centre, scale=scale, mirrored=mirrored),
-        distortion=dist, repaired=repaired, messages=messages, report=vm.report,
-    )

@@ -12,15 +12,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
-from trispline.spline.errors import first_few
+from trispline.spline.checks import as_array
+from trispline.spline.errors import InputError, first_few
+from trispline.spline.tolerances import MIN_RELATIVE_AREA_3D
 
 from .errors import MeshError
-
-#: Faces with 3D area below this fraction of the mean face area count as zero-area.
-MIN_RELATIVE_AREA_3D = 1e-12
+from .tables import boundary_loops, fan_counts, orientation_classes, undirected_edges, vertex_components
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,140 +60,40 @@ def face_areas_3d(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
 
 
-def _as_arrays(V, F) -> tuple[np.ndarray, np.ndarray]:
-    V = np.asarray(V)
-    F = np.asarray(F)
+def zero_area_faces(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Mask ``(nf,)`` of faces whose 3D area is below ``MIN_RELATIVE_AREA_3D`` times the mean."""
+    area = face_areas_3d(V, F)
+    return area <= MIN_RELATIVE_AREA_3D * max(area.mean(), np.finfo(float).tiny)
+
+
+def repeated_vertex_faces(F: np.ndarray) -> np.ndarray:
+    """Mask ``(nf,)`` of faces that name a vertex twice."""
+    return (F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 0] == F[:, 2])
+
+
+def as_mesh_arrays(V, F) -> tuple[np.ndarray, np.ndarray]:
+    """``(V (nv, 3) float64, F (nf, 3) int64)``, contiguous; a planar ``(nv, 2)`` V is lifted to z = 0.
+
+    Raises :class:`MeshError` (kind ``"shape"``, or ``"empty"`` without faces); face ids
+    are not checked here.
+    """
+    V, F = np.asarray(V), np.asarray(F)
     if V.ndim != 2 or V.shape[1] not in (2, 3):
         raise MeshError(f"V must have shape (nv, 3) (or (nv, 2)), got {V.shape}", ["shape"])
     if F.ndim != 2 or F.shape[1] != 3:
         raise MeshError(f"F must have shape (nf, 3) (triangles), got {F.shape}", ["shape"])
-    if not np.issubdtype(V.dtype, np.number):
-        raise MeshError(f"V must be numeric, got dtype {V.dtype}", ["shape"])
-    if F.size and not np.issubdtype(F.dtype, np.integer):
+    if F.size and not np.issubdtype(F.dtype, np.integer):  # as_array would round whole floats
         raise MeshError(f"F must hold integer vertex ids, got dtype {F.dtype}", ["shape"])
-    V = np.ascontiguousarray(V, dtype=np.float64)
+    try:
+        V = np.ascontiguousarray(as_array(V, "V", (None, V.shape[1])))
+        F = np.ascontiguousarray(as_array(F, "F", (None, 3), integer=True))
+    except InputError as exc:
+        raise MeshError(str(exc), ["shape"]) from None
     if V.shape[1] == 2:
         V = np.column_stack([V, np.zeros(len(V))])
-    F = np.ascontiguousarray(F, dtype=np.int64)
     if F.shape[0] == 0:
         raise MeshError("the mesh has no faces", ["empty"])
     return V, F
-
-
-def _undirected_edges(F: np.ndarray, nv: int):
-    """Half-edges ``3f+k`` (opposite local k) -> undirected edge ids.
-
-    Returns ``he (3nf, 2)``, ``edges (ne, 2)``, ``he_edge (3nf,)``, ``edge_count (ne,)``.
-    """
-    he = np.stack([F[:, [1, 2, 0]], F[:, [2, 0, 1]]], axis=-1).reshape(-1, 2)
-    key = np.minimum(he[:, 0], he[:, 1]) * nv + np.maximum(he[:, 0], he[:, 1])
-    uniq, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
-    edges = np.column_stack([uniq // nv, uniq % nv])
-    return he, edges, inv.ravel(), cnt
-
-
-def _components(F: np.ndarray, nv: int) -> tuple[int, np.ndarray]:
-    """Vertex-connected components: ``(n, label per vertex (nv,))``."""
-    r = np.concatenate([F[:, 0], F[:, 1], F[:, 2]])
-    c = np.concatenate([F[:, 1], F[:, 2], F[:, 0]])
-    A = sp.coo_matrix((np.ones(r.size, np.int8), (r, c)), shape=(nv, nv)).tocsr()
-    return connected_components(A, directed=False)
-
-
-def _fan_counts(F: np.ndarray, he_edge: np.ndarray, edge_count: np.ndarray, nv: int) -> np.ndarray:
-    """Number of face fans (edge-connected groups of incident faces) at each vertex ``(nv,)``."""
-    nf = F.shape[0]
-    # corner 3f+k sits at F[f, k]; half-edge 3f+k joins local (k+1, k+2)
-    he_face = np.repeat(np.arange(nf), 3)
-    he_k = np.tile(np.arange(3), nf)
-    order = np.argsort(he_edge, kind="stable")
-    e_sorted = he_edge[order]
-    # pair consecutive half-edges of the same edge (for non-manifold edges: a chain)
-    same = e_sorted[1:] == e_sorted[:-1]
-    h0, h1 = order[:-1][same], order[1:][same]
-    rows, cols = [], []
-    for off in (1, 2):  # both endpoints of the edge
-        c0 = 3 * he_face[h0] + (he_k[h0] + off) % 3
-        v = F.ravel()[c0]
-        f1 = he_face[h1]
-        k1 = np.argmax(F[f1] == v[:, None], axis=1)
-        rows.append(c0)
-        cols.append(3 * f1 + k1)
-    r = np.concatenate(rows)
-    c = np.concatenate(cols)
-    A = sp.coo_matrix((np.ones(r.size, np.int8), (r, c)), shape=(3 * nf, 3 * nf)).tocsr()
-    _, lab = connected_components(A, directed=False)
-    key = np.unique(F.ravel() * np.int64(3 * nf) + lab)  # distinct (vertex, fan label)
-    return np.bincount(key // (3 * nf), minlength=nv)
-
-
-def _orient(F: np.ndarray, he: np.ndarray, he_edge: np.ndarray) -> tuple[np.ndarray, int]:
-    """Consistently orient an edge-manifold mesh with one component.
-
-    Uses the orientation double cover: node ``f`` (kept) and ``nf + f`` (flipped).
-    Returns the oriented faces and the number of reversed rows (the smaller side).
-    Raises MeshError for a non-orientable surface.
-    """
-    nf = F.shape[0]
-    order = np.argsort(he_edge, kind="stable")
-    e_sorted = he_edge[order]
-    same = e_sorted[1:] == e_sorted[:-1]
-    h0, h1 = order[:-1][same], order[1:][same]
-    f0, f1 = h0 // 3, h1 // 3
-    consistent = he[h0, 0] == he[h1, 1]  # opposite traversal
-    a = np.where(consistent, f1, nf + f1)
-    b = np.where(consistent, nf + f1, f1)
-    r = np.concatenate([f0, nf + f0])
-    c = np.concatenate([a, b])
-    A = sp.coo_matrix((np.ones(r.size, np.int8), (r, c)), shape=(2 * nf, 2 * nf)).tocsr()
-    _, lab = connected_components(A, directed=False)
-    bad = np.flatnonzero(lab[:nf] == lab[nf:])
-    if bad.size:
-        raise MeshError(
-            f"the surface is not orientable (Moebius-like): faces {first_few(bad)} cannot be "
-            "oriented consistently",
-            ["non_orientable"],
-        )
-    keep_label = lab[0]
-    flip = lab[:nf] != keep_label
-    if flip.sum() * 2 > nf:
-        flip = ~flip
-    F = F.copy()
-    F[flip] = F[flip][:, [0, 2, 1]]
-    return F, int(flip.sum())
-
-
-def _boundary_loops(V: np.ndarray, F: np.ndarray, bnd_edges: np.ndarray) -> list[np.ndarray]:
-    """Boundary loops of an oriented manifold mesh, longest (3D length) first.
-
-    ``bnd_edges (nb, 2)``: the undirected boundary edges (used by one face).
-    """
-    nv = V.shape[0]
-    if bnd_edges.size == 0:
-        return []
-    he = np.stack([F[:, [0, 1, 2]], F[:, [1, 2, 0]]], axis=-1).reshape(-1, 2)
-    key = np.minimum(he[:, 0], he[:, 1]) * nv + np.maximum(he[:, 0], he[:, 1])
-    bkey = np.sort(bnd_edges[:, 0] * nv + bnd_edges[:, 1])
-    pos = np.minimum(np.searchsorted(bkey, key), bkey.size - 1)
-    bnd = he[bkey[pos] == key]
-    if bnd.size == 0:
-        return []
-    succ = np.full(nv, -1, np.int64)
-    succ[bnd[:, 0]] = bnd[:, 1]
-    visited = np.zeros(nv, bool)
-    loops = []
-    for s in bnd[:, 0]:
-        if visited[s]:
-            continue
-        loop = []
-        v = s
-        while v >= 0 and not visited[v]:
-            visited[v] = True
-            loop.append(v)
-            v = succ[v]
-        loops.append(np.asarray(loop, np.int64))
-    length = [np.linalg.norm(V[l] - V[np.roll(l, -1)], axis=1).sum() for l in loops]
-    return [loops[i] for i in np.argsort(length, kind="stable")[::-1]]
 
 
 def validate_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) -> ValidatedMesh:
@@ -214,11 +112,43 @@ def validate_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) -
     MeshError
         With one line per problem found, and ``kinds`` naming them.
     """
-    V, F = _as_arrays(V, F)
-    nv, nf = V.shape[0], F.shape[0]
+    V, F = as_mesh_arrays(V, F)
+    nv_in, nf_in = V.shape[0], F.shape[0]
+    _check_ids(V, F)
     messages: list[str] = []
+    problems: list[tuple[str, str]] = []
+    # -- components (optionally keep the largest)
+    ncomp, vlab = vertex_components(F, nv_in)
+    kept = kept_faces = None
+    if ncomp > 1:
+        if keep_largest:
+            V, F, kept, kept_faces, message = _largest_component(V, F, vlab, ncomp)
+            messages.append(message)
+        else:
+            problems.append(_components_problem(F, vlab, ncomp))
+    # -- stage 2: independent local problems, reported together
+    he, edges, he_edge, edge_count = undirected_edges(F, V.shape[0])
+    problems += _local_problems(V, F, edges, he_edge, edge_count, kept)
+    if problems:
+        _raise(problems)
+    # -- orientation, then the topology of the oriented surface
+    F, flip = _orient(F, he, he_edge)
+    if flip.any():
+        messages.append(f"repaired orientation of {int(flip.sum())} faces (rows reversed, face order kept)")
+    he_edge = he_edge.reshape(-1, 3).copy()
+    he_edge[np.ix_(flip, [1, 2])] = he_edge[np.ix_(flip, [2, 1])]  # a reversed row swaps half-edges 1, 2
+    loops = boundary_loops(V, F, he_edge.ravel(), edge_count)
+    report = _topology_report(V.shape[0], edges.shape[0], F.shape[0], len(loops))
+    report.update(components=ncomp, reoriented_faces=int(flip.sum()),
+                  dropped_vertices=0 if kept is None else int(nv_in - kept.size),
+                  dropped_faces=0 if kept_faces is None else int(nf_in - kept_faces.size))
+    return ValidatedMesh(V=V, F=F, report=report, messages=messages, boundary_loops=loops,
+                         kept=kept, kept_faces=kept_faces)
 
-    # -- stage 1: problems that make everything else meaningless
+
+def _check_ids(V: np.ndarray, F: np.ndarray) -> None:
+    """Stage 1: problems that make everything else meaningless (raised at once)."""
+    nv = V.shape[0]
     bad_v = np.flatnonzero(~np.isfinite(V).all(1))
     if bad_v.size:
         raise MeshError(f"non-finite vertex coordinates (NaN or inf) at vertices {first_few(bad_v)}",
@@ -227,7 +157,7 @@ def validate_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) -
     out = np.flatnonzero(((F < 0) | (F >= nv)).any(1))
     if out.size:
         problems.append(("vertex_id_range", f"faces with vertex ids outside [0, {nv}): {first_few(out)}"))
-    rep = np.flatnonzero((F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 0] == F[:, 2]))
+    rep = np.flatnonzero(repeated_vertex_faces(F))
     if rep.size:
         problems.append(("repeated_vertex_id", f"faces with a repeated vertex id: {first_few(rep)}"))
     if problems:
@@ -241,39 +171,36 @@ def validate_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) -
             ["unreferenced_vertices"],
         )
 
-    # -- components (optionally keep the largest)
-    ncomp, vlab = _components(F, nv)
-    kept = kept_faces = None
-    comp_sizes = np.bincount(vlab[F[:, 0]], minlength=ncomp)
-    if ncomp > 1:
-        if keep_largest:
-            big = int(np.argmax(comp_sizes))
-            kept_faces = np.flatnonzero(vlab[F[:, 0]] == big)
-            kept = np.flatnonzero(vlab == big)
-            remap = np.full(nv, -1, np.int64)
-            remap[kept] = np.arange(kept.size)
-            messages.append(
-                f"kept the largest of {ncomp} connected components ({kept_faces.size} of {nf} faces, "
-                f"{kept.size} of {nv} vertices)"
-            )
-            V, F = V[kept], remap[F[kept_faces]]
-            nv, nf = V.shape[0], F.shape[0]
-        else:
-            sizes = np.sort(comp_sizes)[::-1]
-            shown = ", ".join(str(int(s)) for s in sizes[:8]) + (", ..." if sizes.size > 8 else "")
-            problems.append((
-                "components",
-                f"the mesh has {ncomp} connected components (faces per component: {shown}); "
-                "trispline needs one surface: use keep_largest=True (--keep-largest) or split the mesh",
-            ))
 
-    # -- stage 2: independent local problems, reported together
-    area = face_areas_3d(V, F)
-    tiny = np.flatnonzero(area <= MIN_RELATIVE_AREA_3D * max(area.mean(), np.finfo(float).tiny))
+def _largest_component(V: np.ndarray, F: np.ndarray, vlab: np.ndarray, ncomp: int):
+    """``(V, F, kept (nv',), kept_faces (nf',), message)`` of the component with the most faces."""
+    nv, nf = V.shape[0], F.shape[0]
+    big = int(np.argmax(np.bincount(vlab[F[:, 0]], minlength=ncomp)))
+    kept_faces = np.flatnonzero(vlab[F[:, 0]] == big)
+    kept = np.flatnonzero(vlab == big)
+    remap = np.full(nv, -1, np.int64)
+    remap[kept] = np.arange(kept.size)
+    message = (f"kept the largest of {ncomp} connected components ({kept_faces.size} of {nf} faces, "
+               f"{kept.size} of {nv} vertices)")
+    return V[kept], remap[F[kept_faces]], kept, kept_faces, message
+
+
+def _components_problem(F: np.ndarray, vlab: np.ndarray, ncomp: int) -> tuple[str, str]:
+    sizes = np.sort(np.bincount(vlab[F[:, 0]], minlength=ncomp))[::-1]
+    shown = ", ".join(str(int(s)) for s in sizes[:8]) + (", ..." if sizes.size > 8 else "")
+    return ("components",
+            f"the mesh has {ncomp} connected components (faces per component: {shown}); "
+            "trispline needs one surface: use keep_largest=True (--keep-largest) or split the mesh")
+
+
+def _local_problems(V: np.ndarray, F: np.ndarray, edges: np.ndarray, he_edge: np.ndarray,
+                    edge_count: np.ndarray, kept: np.ndarray | None) -> list[tuple[str, str]]:
+    """Zero-area faces, non-manifold edges, bowtie vertices (``kept`` maps vertex ids back)."""
+    problems = []
+    tiny = np.flatnonzero(zero_area_faces(V, F))
     if tiny.size:
         problems.append(("zero_area", f"zero-area faces (area < {MIN_RELATIVE_AREA_3D:g} x mean): "
                                       f"{first_few(tiny)}"))
-    he, edges, he_edge, edge_count = _undirected_edges(F, nv)
     nm = np.flatnonzero(edge_count > 2)
     if nm.size:
         nm_faces = np.unique(np.flatnonzero(np.isin(he_edge, nm)) // 3)
@@ -282,25 +209,41 @@ def validate_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) -
             f"non-manifold edges (shared by more than 2 faces): {nm.size} edges, first "
             f"{', '.join(f'({a}, {b})' for a, b in edges[nm[:5]])}; faces {first_few(nm_faces)}",
         ))
-    fans = _fan_counts(F, he_edge, edge_count, nv)
-    bow = np.flatnonzero(fans > 1)
+    bow = np.flatnonzero(fan_counts(F, he_edge, V.shape[0]) > 1)
     if bow.size:
         problems.append(("bowtie_vertices",
                          f"non-manifold (bowtie) vertices, where separate fans of faces meet: "
                          f"{first_few(bow if kept is None else kept[bow])}"))
-    if problems:
-        _raise(problems)
+    return problems
 
-    # -- orientation
-    F, nflip = _orient(F, he, he_edge)
-    if nflip:
-        messages.append(f"repaired orientation of {nflip} faces (rows reversed, face order kept)")
 
-    # -- topology
-    loops = _boundary_loops(V, F, edges[edge_count == 1])
-    ne = edges.shape[0]
+def _orient(F: np.ndarray, he: np.ndarray, he_edge: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Consistently orient an edge-manifold mesh with one component.
+
+    Returns the oriented faces and the mask ``(nf,)`` of reversed rows (the smaller side).
+    Raises MeshError for a non-orientable surface.
+    """
+    nf = F.shape[0]
+    lab = orientation_classes(F, he, he_edge)
+    bad = np.flatnonzero(lab[:nf] == lab[nf:])
+    if bad.size:
+        raise MeshError(
+            f"the surface is not orientable (Moebius-like): faces {first_few(bad)} cannot be "
+            "oriented consistently",
+            ["non_orientable"],
+        )
+    flip = lab[:nf] != lab[0]
+    if flip.sum() * 2 > nf:
+        flip = ~flip
+    F = F.copy()
+    F[flip] = F[flip][:, [0, 2, 1]]
+    return F, flip
+
+
+def _topology_report(nv: int, ne: int, nf: int, nb: int) -> dict:
+    """Counts of an oriented surface with ``nb`` boundary loops; raises unless it is a disk
+    with ``nb - 1`` holes."""
     chi = nv - ne + nf
-    nb = len(loops)
     if nb == 0:
         genus = (2 - chi) // 2
         raise MeshError(
@@ -310,22 +253,15 @@ def validate_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) -
         )
     genus2 = 2 - chi - nb
     if genus2 != 0:
-        genus = genus2 / 2
-        gtxt = f"{genus:g}"
+        gtxt = f"{genus2 / 2:g}"
         raise MeshError(
             f"the surface is not a disk or a disk with holes: genus {gtxt} with {nb} boundary loops "
             f"(Euler characteristic {chi} = V {nv} - E {ne} + F {nf}; a disk with h holes has "
             f"1 - h); cut handles open first",
             ["not_disk"],
         )
-    report = dict(
-        vertices=nv, faces=nf, edges=ne, boundary_loops=nb, holes=nb - 1, genus=0,
-        euler_characteristic=chi, components=ncomp, reoriented_faces=nflip,
-        dropped_vertices=0 if kept is None else int(used.size - kept.size),
-        dropped_faces=0 if kept_faces is None else int(comp_sizes.sum() - kept_faces.size),
-    )
-    return ValidatedMesh(V=V, F=F, report=report, messages=messages, boundary_loops=loops,
-                         kept=kept, kept_faces=kept_faces)
+    return dict(vertices=nv, faces=nf, edges=ne, boundary_loops=nb, holes=nb - 1, genus=0,
+                euler_characteristic=chi)
 
 
 def _raise(problems: list[tuple[str, str]]) -> None:

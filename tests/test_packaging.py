@@ -25,12 +25,14 @@ def wheel(tmp_path_factory) -> Path:
 
 
 def test_wheel_holds_every_source_module(wheel):
+    """Every ``.py`` file of every sub-package (``spline/util/gather.py`` ...) is in the wheel:
+    a sub-package missing from ``pyproject.toml``'s package list would be left out."""
     names = set(zipfile.ZipFile(wheel).namelist())
     for folder, target in PACKAGES.items():
-        sources = sorted(p.name for p in (ROOT / folder).glob("*.py"))
-        assert sources, folder
-        for name in sources:
-            assert f"{target}/{name}" in names, f"{folder}/{name} missing from the wheel"
+        sources = sorted(p.relative_to(ROOT / folder).as_posix() for p in (ROOT / folder).rglob("*.py"))
+        assert f"{folder}/__init__.py" in [f"{folder}/{s}" for s in sources], folder
+        missing = [f"{folder}/{name}" for name in sources if f"{target}/{name}" not in names]
+        assert not missing, f"missing from the wheel: {missing}"
 
 
 def test_wheel_has_no_bare_top_level_packages(wheel):

@@ -5,71 +5,45 @@
                      [--curvature mean|gaussian] [--stripes N] [--stripe-angle DEG] [--title TEXT]
                      [--backend auto|pyvista|matplotlib] [--json] [--quiet]
 
-Conventions of :mod:`trispline.fit.cli`: bad input (unreadable surface or mesh,
+Conventions of :mod:`trispline.fit.cli.common`: bad input (unreadable surface or mesh,
 bad option, deviation without a data mesh) raises an ``InputError`` (exit 2,
 one line on stderr); the picture is written atomically; ``--json`` prints the
-result (size, backend, the picture's scale statistics) on stdout.
-
-    import argparse
-    from trispline.fit.cli import render as render_cli
-    sub = parser.add_subparsers(...)
-    render_cli.add_parser(sub)             # sets func=render_cli.run
+result (size, backend, the picture's scale statistics) on stdout. :func:`main` runs
+``trispline render ...`` on its own, with the same exit codes.
 """
 from __future__ import annotations
 
 import argparse
 import time
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
+from ..errors import RenderError
+from .common import (
+    EXIT_OK, PROG, UI, Parser, add_common, check_output, finite_float, load_surface, positive_float,
+    positive_int, run_cli,
+)
 
 __all__ = ["add_parser", "run", "main"]
 
 DEFAULT_SIZE = "800x600"
 
 
-def _size(text: str) -> tuple[int, int]:
-    from ..render import RenderError, parse_size
+def _option(parse: Callable[[str], Any]) -> Callable[[str], Any]:
+    """An argparse type: ``parse(text)``, with its :class:`RenderError` reported as a bad option value."""
 
-    try:
-        return parse_size(text)
-    except RenderError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
+    def convert(text: str) -> Any:
+        try:
+            return parse(text)
+        except RenderError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
 
-
-def _view(text: str):
-    from ..render import RenderError, parse_view
-
-    try:
-        return parse_view(text)
-    except RenderError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-
-
-def _positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (v > 0 and v < float("inf")):
-        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text}")
-    return v
-
-
-def _finite_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if v != v or v in (float("inf"), float("-inf")):
-        raise argparse.ArgumentTypeError(f"expected a finite number, got {text}")
-    return v
+    convert.__name__ = parse.__name__
+    return convert
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``render`` on an ``add_subparsers()`` action; returns its parser (``func=run``)."""
-    from .app import _add_common, _positive_int
-
-    from ..render import BACKENDS, CURVATURES, MODES, VIEWS
+    from ..render import BACKENDS, CURVATURES, MODES, VIEWS, parse_size, parse_view
 
     p = subparsers.add_parser(
         "render", help="draw a picture of a surface: shaded, zebra, curvature, deviation or control net",
@@ -81,23 +55,23 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--mode", choices=MODES, default="shaded", help="what to show (default shaded)")
     p.add_argument("--mesh", metavar="DATA_MESH",
                    help="data mesh for --mode deviation (default: the fit's data vertices stored in the surface)")
-    p.add_argument("--view", type=_view, default="iso", metavar="VIEW",
+    p.add_argument("--view", type=_option(parse_view), default="iso", metavar="VIEW",
                    help=f"{'|'.join(VIEWS)} or AZIMUTH,ELEVATION in degrees (default iso)")
-    p.add_argument("--size", type=_size, default=DEFAULT_SIZE, metavar="WxH",
+    p.add_argument("--size", type=_option(parse_size), default=DEFAULT_SIZE, metavar="WxH",
                    help=f"picture size in pixels (default {DEFAULT_SIZE})")
-    p.add_argument("--resolution", type=_positive_int, default=None, metavar="N",
+    p.add_argument("--resolution", type=positive_int, default=None, metavar="N",
                    help="samples per patch edge (default: automatic, about 1.7M triangles, at most 8)")
     p.add_argument("--curvature", choices=CURVATURES, default="mean", help="for --mode curvature (default mean)")
-    p.add_argument("--stripes", type=_positive_float, default=12.0, metavar="N",
+    p.add_argument("--stripes", type=positive_float, default=12.0, metavar="N",
                    help="zebra: light tubes per bounding-box diagonal (default 12)")
-    p.add_argument("--stripe-angle", type=_finite_float, default=45.0, metavar="DEG",
+    p.add_argument("--stripe-angle", type=finite_float, default=45.0, metavar="DEG",
                    help="zebra: direction of the tubes on screen, degrees from horizontal (default 45)")
     p.add_argument("--patch-lines", choices=("auto", "on", "off"), default="auto",
                    help="draw the patch boundaries (default auto: up to 2000 patches)")
     p.add_argument("--title", default=None, help="picture title (default: the mode and patch count)")
     p.add_argument("--backend", choices=BACKENDS, default=None,
                    help="auto (PyVista, else matplotlib; default, or $TRISPLINE_RENDER_BACKEND), pyvista, matplotlib")
-    _add_common(p)
+    add_common(p)
     p.set_defaults(func=run)
     return p
 
@@ -115,17 +89,15 @@ def _text(d: dict) -> str:
             f"resolution {stats['resolution']}, {d['backend']}, {d['seconds']:.1f} s{extra})")
 
 
-def run(args: argparse.Namespace, ui: Any = None) -> int:
-    """Body of ``trispline render``; ``ui`` is :mod:`trispline.fit.cli`'s output helper (made if None)."""
-    from .app import EXIT_OK, _check_output, _load_surface, _UI
-
+def run(args: argparse.Namespace, ui: UI | None = None) -> int:
+    """Body of ``trispline render``; ``ui`` is the command line's output helper (made if None)."""
     from ..render import draw, write_png
 
-    ui = ui if ui is not None else _UI(args)
-    out = _check_output(args.output, (".png",), "the picture")
+    ui = ui if ui is not None else UI(args)
+    out = check_output(args.output, (".png",), "the picture")
     if args.mesh is not None and args.mode != "deviation":
         ui.warn(f"--mesh is used by --mode deviation only; ignored for --mode {args.mode}")
-    surface = _load_surface(args.surface)
+    surface = load_surface(args.surface)
     mesh = None
     if args.mode == "deviation" and args.mesh is not None:
         from ..io import read_mesh
@@ -152,11 +124,10 @@ def run(args: argparse.Namespace, ui: Any = None) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """``trispline render ...`` on its own (the same exit codes and messages as :func:`trispline.fit.cli.main`)."""
-    from .app import PROG, _Parser, run_cli
 
     def make_parser() -> argparse.ArgumentParser:
-        parser = _Parser(prog=PROG)
-        sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+        parser = Parser(prog=PROG)
+        sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
         sub.required = True
         add_parser(sub)
         return parser

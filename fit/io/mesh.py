@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from trispline.param.errors import MeshError, UnreferencedVerticesWarning
+from trispline.spline.errors import first_few
 
 #: File extensions :func:`read_mesh` understands.
 SUPPORTED = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf")
@@ -98,7 +99,7 @@ def read_mesh(path: str | Path) -> MeshData:
     if F.min() < 0 or F.max() >= V.shape[0]:
         bad = np.flatnonzero((F < 0).any(1) | (F >= V.shape[0]).any(1))
         raise MeshError(
-            f"{path}: faces refer to vertices outside [0, {V.shape[0]}): {_first(bad)}", ["unreadable"]
+            f"{path}: faces refer to vertices outside [0, {V.shape[0]}): {first_few(bad)}", ["unreadable"]
         )
     used = np.zeros(V.shape[0], bool)
     used[F.ravel()] = True
@@ -125,11 +126,6 @@ def load_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 # --------------------------------------------------------------------- helpers
-def _first(idx: np.ndarray, n: int = 5) -> str:
-    head = ", ".join(str(int(i)) for i in np.asarray(idx).ravel()[:n])
-    return f"{np.asarray(idx).size} (first: {head}{', ...' if np.asarray(idx).size > n else ''})"
-
-
 def _fan_triangulate(polys: list[list[int]]) -> np.ndarray:
     """Fan-triangulate polygons given as index lists; returns (nf, 3) int64."""
     if not polys:
@@ -137,7 +133,7 @@ def _fan_triangulate(polys: list[list[int]]) -> np.ndarray:
     sizes = np.fromiter((len(p) for p in polys), np.int64, len(polys))
     if (sizes < 3).any():
         bad = np.flatnonzero(sizes < 3)
-        raise MeshError(f"polygons with fewer than 3 vertices: {_first(bad)}", ["unreadable"])
+        raise MeshError(f"polygons with fewer than 3 vertices: {first_few(bad)}", ["unreadable"])
     flat = np.fromiter((i for p in polys for i in p), np.int64, int(sizes.sum()))
     if (sizes == 3).all():
         return flat.reshape(-1, 3)

@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 import trimesh
 
-import trispline.fit.cli.app as cli
+import trispline.fit.cli as cli
+from trispline.fit.cli import check as check_command
 from trispline.fit.io import read_mesh
 from trispline.fit.datasets.synthetic import synthetic_scan
 from trispline.spline.index import CORNER
@@ -321,7 +322,7 @@ def test_internal_error_is_exit_1_without_traceback(c1_file, monkeypatch, capsys
     def boom(*a, **k):
         raise ZeroDivisionError("simulated bug")
 
-    monkeypatch.setattr(cli, "surface_report", boom)
+    monkeypatch.setattr(check_command, "surface_report", boom)
     assert cli.main(["check", str(c1_file)]) == 1
     err = capsys.readouterr().err
     assert err.strip().splitlines() == [

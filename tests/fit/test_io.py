@@ -9,7 +9,7 @@ import trimesh
 
 from trispline.fit.io import MeshData, load_mesh, read_mesh
 from trispline.param import MeshError, UnreferencedVerticesWarning
-from trispline.param.samples import lift
+from trispline.param.testing import lift
 from trispline.spline.testing.domains import random_delaunay
 from trispline.spline.errors import InputError
 

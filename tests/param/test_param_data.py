@@ -10,8 +10,7 @@ import numpy as np
 import pytest
 
 from trispline.fit.io import read_mesh
-from trispline.param import MeshError, fold_mask, parameterize, validate_mesh
-from trispline.param import _igl
+from trispline.param import MeshError, fold_mask, harmonic_uv, parameterize, validate_mesh
 from trispline.spline.topology import Triangulation, signed_areas
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
@@ -28,6 +27,13 @@ VALID = {  # name: (faces, holes)
 needs_data = pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data not present")
 
 
+def data_mesh(name: str):
+    """``read_mesh`` of ``DATA / name``; skips the test when the file is not there."""
+    if not (DATA / name).exists():
+        pytest.skip(f"{name} not present")
+    return read_mesh(DATA / name)
+
+
 def _cases():
     for name, (nf, _) in VALID.items():
         for method in ("harmonic", "lscm"):
@@ -38,10 +44,7 @@ def _cases():
 @needs_data
 @pytest.mark.parametrize("name,method", list(_cases()))
 def test_data_mesh_fold_free(name, method):
-    path = DATA / name
-    if not path.exists():
-        pytest.skip(f"{name} not present")
-    m = read_mesh(path)
+    m = data_mesh(name)
     nf, holes = VALID[name]
     assert m.F.shape[0] == nf
     p = parameterize(m.V, m.F, method)
@@ -56,13 +59,10 @@ def test_data_mesh_fold_free(name, method):
 @needs_data
 @pytest.mark.slow
 def test_beetle_free_holes_fold_but_filled_holes_do_not():
-    path = DATA / "beetle.off"
-    if not path.exists():
-        pytest.skip("beetle.off not present")
-    m = read_mesh(path)
+    m = data_mesh("beetle.off")
     vm = validate_mesh(m.V, m.F)
     outer = vm.boundary_loops[0]
-    free = _igl.harmonic(vm.V, vm.F, outer, _igl.circle_boundary(vm.V, outer))
+    free = harmonic_uv(vm.V, vm.F, outer)
     n_folded = int((signed_areas(free, vm.F) <= 0).sum())
     assert n_folded == 162  # the documented failure of leaving the holes free
     p = parameterize(m.V, m.F, "harmonic")
@@ -71,10 +71,7 @@ def test_beetle_free_holes_fold_but_filled_holes_do_not():
 
 @needs_data
 def test_pelvis_rejected():
-    path = DATA / "pelvis-registration-partial.obj"
-    if not path.exists():
-        pytest.skip("pelvis-registration-partial.obj not present")
-    m = read_mesh(path)
+    m = data_mesh("pelvis-registration-partial.obj")
     with pytest.raises(MeshError) as e:
         validate_mesh(m.V, m.F)
     msg = str(e.value)
@@ -90,10 +87,7 @@ def test_pelvis_rejected():
 @needs_data
 @pytest.mark.slow
 def test_mountain_is_a_y_up_height_field():
-    path = DATA / "mountain.obj"
-    if not path.exists():
-        pytest.skip("mountain.obj not present")
-    m = read_mesh(path)
+    m = data_mesh("mountain.obj")
     with pytest.raises(MeshError, match=r"folds \d+ triangles.*pass uv=V\[:, \[0, 2\]\]"):
         parameterize(m.V, m.F, "uv", repair=False)
     p = parameterize(m.V, m.F, "uv", uv=m.V[:, [0, 2]])

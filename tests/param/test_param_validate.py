@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from trispline.param import MeshError, validate_mesh
-from trispline.param.samples import lift
+from trispline.param.testing import lift
 from trispline.spline.testing.domains import annulus, random_delaunay
 from trispline.spline.errors import InputError
 

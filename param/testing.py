@@ -1,4 +1,4 @@
-"""Generated open 3D meshes for tests, examples and benchmarks."""
+"""Generated open 3D meshes for tests, examples and benchmarks (not part of the public ``trispline.param`` API)."""
 from __future__ import annotations
 
 from collections.abc import Callable

@@ -1,0 +1,121 @@
+"""``trispline check``: continuity residuals and statistics of a surface file (exit 3 if C1 is broken).
+
+    trispline check SURFACE.npz [--tolerance T] [--samples N]
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+import numpy as np
+
+from trispline.spline.tolerances import CHECK_TOLERANCE
+
+from .common import (
+    EXIT_CHECK, EXIT_OK, PROG, UI, add_common, fmt, load_surface, nonneg_float, positive_int,
+)
+
+__all__ = ["add_parser", "cmd_check", "surface_report"]
+
+
+def add_parser(sub: Any) -> None:
+    """Register ``check`` on an ``add_subparsers()`` action."""
+    p = sub.add_parser("check", help="continuity residuals and statistics of a surface file",
+                       description="Algebraic C0/C1 residuals across every interior edge, sampled value and "
+                                   "gradient jumps, patch count, bounds, stored fit energies. Exit 3 if a "
+                                   "relative residual exceeds the tolerance.")
+    p.add_argument("surface", metavar="SURFACE", help="surface file (.npz or .json)")
+    p.add_argument("--tolerance", type=nonneg_float, default=CHECK_TOLERANCE,
+                   help=f"largest accepted relative residual (default {CHECK_TOLERANCE:g})")
+    p.add_argument("--samples", type=positive_int, default=7, help="samples per edge for the jumps (default 7)")
+    add_common(p)
+    p.set_defaults(func=cmd_check)
+
+
+def surface_report(surface: Any, *, tolerance: float = CHECK_TOLERANCE, samples: int = 7) -> dict:
+    """Continuity residuals and statistics of a surface (the body of ``check``)."""
+    from trispline.spline.continuity import continuity_report
+
+    tri = surface.triangulation
+    ctrl = np.asarray(surface.ctrl)
+    alg = continuity_report(tri, ctrl)
+    num = surface.continuity(samples)
+    num = {k: v for k, v in num.items() if not isinstance(v, np.ndarray)}
+    pts = ctrl.reshape(-1, 3)
+    corners = _corner_points(tri, ctrl)
+    report: dict[str, Any] = dict(
+        patches=tri.n_faces, vertices=tri.n_vertices, edges=tri.n_edges,
+        interior_edges=int(tri.interior_edges.size), boundary_edges=int(tri.boundary_edges.size),
+        boundary_loops=len(tri.boundary_loops), holes=tri.n_holes,
+        bounds=dict(control_points=[pts.min(0), pts.max(0)], corner_points=[corners.min(0), corners.max(0)],
+                    uv=[tri.uv.min(0), tri.uv.max(0)]),
+        c1_algebraic=alg, c1_sampled=num,
+    )
+    report.update(_stored_fit(dict(surface.extras), corners))
+    worst = dict(c0_algebraic=alg["c0_relative"], c1_algebraic=alg["c1_relative"],
+                 c0_sampled=num["c0_relative"], c1_sampled=num["c1_relative"])
+    failed = sorted(k for k, v in worst.items() if not v <= tolerance)
+    report.update(tolerance=tolerance, relative_residuals=worst, failed=failed, ok=not failed)
+    return report
+
+
+def _corner_points(tri: Any, ctrl: np.ndarray) -> np.ndarray:
+    """The corner control point of every vertex ``(nv, 3)``."""
+    from trispline.spline.index import CORNER
+
+    corners = np.empty((tri.n_vertices, 3))
+    corners[tri.faces.ravel()] = ctrl[:, CORNER].reshape(-1, 3)
+    return corners
+
+
+def _stored_fit(ex: dict, corners: np.ndarray) -> dict[str, Any]:
+    """What ``fit`` stored in the file's optional keys: energies, weights, settings, interpolation error."""
+    report: dict[str, Any] = {}
+    for key, names, values in (("energies", "fit_energy_names", "fit_energies"),
+                               ("weights", "fit_weight_names", "fit_weights")):
+        if names in ex and values in ex:
+            report[key] = dict(zip([str(s) for s in np.atleast_1d(ex[names])],
+                                   [float(v) for v in np.atleast_1d(ex[values])]))
+    for key in ("fit_param", "fit_source", "fit_iterations", "fit_converged"):
+        if key in ex:
+            v = np.asarray(ex[key])
+            report[key[4:]] = v.item() if v.ndim == 0 else v.tolist()
+    if "data_vertices" in ex:
+        D = np.asarray(ex["data_vertices"], float)
+        if D.shape == corners.shape:
+            report["max_interpolation_error"] = float(np.abs(corners - D).max())
+    return report
+
+
+def _check_text(d: dict) -> str:
+    b = d["bounds"]["control_points"]
+    lines = [
+        f"{d['file']}: {d['patches']} patches, {d['vertices']} vertices, {d['interior_edges']} interior / "
+        f"{d['boundary_edges']} boundary edges, {d['boundary_loops']} boundary loops ({d['holes']} holes)",
+        f"  bounds: min {np.round(b[0], 6).tolist()} max {np.round(b[1], 6).tolist()}",
+        "  relative residuals: " + ", ".join(f"{k} {fmt(v)}" for k, v in d["relative_residuals"].items()),
+    ]
+    if "energies" in d:
+        lines.append("  stored energies: " + ", ".join(f"{k} {fmt(v)}" for k, v in d["energies"].items()))
+    if "max_interpolation_error" in d:
+        lines.append(f"  max interpolation error: {fmt(d['max_interpolation_error'])}")
+    verdict = ("OK: C1 within tolerance" if d["ok"]
+               else f"FAILED: {', '.join(d['failed'])} above tolerance")
+    lines.append(f"  {verdict} {d['tolerance']:g}")
+    return "\n".join(lines)
+
+
+def cmd_check(args: argparse.Namespace, ui: UI) -> int:
+    """Body of ``trispline check``: exit 3 when a relative residual exceeds ``--tolerance``."""
+    surface = load_surface(args.surface)
+    with ui.stages(("residuals",), "check") as bar:
+        report = surface_report(surface, tolerance=args.tolerance, samples=max(args.samples, 2))
+        bar.done()
+    data = dict(command="check", file=args.surface, **report)
+    ui.result(data, _check_text)
+    if not report["ok"]:
+        print(f"{PROG}: check failed: {', '.join(report['failed'])} above the tolerance "
+              f"{args.tolerance:g}", file=sys.stderr)
+        return EXIT_CHECK
+    return EXIT_OK

@@ -1,0 +1,287 @@
+"""Plumbing shared by every ``trispline`` subcommand: output, progress, option types, paths, errors.
+
+A subcommand module registers itself with ``add_parser(subparsers)`` (setting
+``func(args, ui) -> exit code``) and uses :class:`UI` for everything it prints;
+:func:`run_cli` parses, runs and turns exceptions into one-line messages and exit codes.
+Nothing here imports JAX.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import traceback
+import warnings
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from trispline.spline.errors import InputError, OutputError
+
+from ..errors import CommandFailed, UsageError
+
+__all__ = [
+    "PROG", "EXIT_OK", "EXIT_FAILURE", "EXIT_INPUT", "EXIT_CHECK", "EXIT_INTERRUPTED",
+    "Parser", "UI", "Stages", "one_line", "fmt", "positive_int", "nonneg_float", "positive_float",
+    "finite_float", "add_common", "check_output", "distinct", "load_surface", "version", "run_cli",
+]
+
+PROG = "trispline"
+EXIT_OK = 0
+EXIT_FAILURE = 1
+EXIT_INPUT = 2
+EXIT_CHECK = 3
+EXIT_INTERRUPTED = 130
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose errors raise :class:`UsageError` (exit 2, one line) instead of exiting."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise UsageError(f"{message} (see '{self.prog} --help')")
+
+
+# ============================================================================ output
+class UI:
+    """Where things go: results on stdout, progress / warnings / errors on stderr."""
+
+    def __init__(self, args: argparse.Namespace) -> None:
+        self.json = bool(getattr(args, "json", False))
+        self.quiet = bool(getattr(args, "quiet", False))
+        self.warnings: list[str] = []
+
+    def warn(self, message: str) -> None:
+        """A warning on stderr, once per distinct message; also listed in the JSON result."""
+        message = one_line(message)
+        if message not in self.warnings:
+            self.warnings.append(message)
+            print(f"{PROG}: warning: {message}", file=sys.stderr, flush=True)
+
+    def note(self, message: str) -> None:
+        """A progress note on stderr (silenced by --quiet)."""
+        if not self.quiet:
+            print(f"{PROG}: {message}", file=sys.stderr, flush=True)
+
+    def result(self, data: dict, text: Callable[[dict], str]) -> None:
+        """The command's result: JSON or text on stdout (text silenced by --quiet)."""
+        if self.json:
+            data = dict(data, warnings=list(self.warnings))
+            print(json.dumps(_jsonable(data), indent=2, allow_nan=False))
+        elif not self.quiet:
+            print(text(data))
+
+    def stages(self, names: Sequence[str], title: str) -> "Stages":
+        """A progress bar over ``names`` (silenced by --quiet)."""
+        return Stages(names, title, disable=self.quiet)
+
+
+class Stages:
+    """A tqdm bar over named stages on stderr; appears only for work taking over ~1 s."""
+
+    def __init__(self, names: Sequence[str], title: str, disable: bool) -> None:
+        from tqdm import tqdm
+
+        self.names = list(names)
+        self.title = title
+        self.i = 0
+        self.bar = tqdm(total=len(self.names), desc=self._desc(), file=sys.stderr, disable=disable,
+                        delay=1.0, leave=False, bar_format="{desc} {bar:20} {n}/{total} [{elapsed}]")
+
+    def _desc(self) -> str:
+        name = self.names[self.i] if self.i < len(self.names) else "done"
+        return f"{self.title}: {name}"
+
+    def done(self, name: str | None = None) -> None:
+        """Mark the current (or the named) stage finished."""
+        if name is not None and name in self.names:
+            step = self.names.index(name) + 1 - self.i
+        else:
+            step = 1
+        if step > 0:
+            self.i += step
+            self.bar.set_description_str(self._desc(), refresh=False)
+            self.bar.update(step)
+
+    def close(self) -> None:
+        self.bar.close()
+
+    def __enter__(self) -> "Stages":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def one_line(message: str) -> str:
+    """Collapse a multi-line message ("problems:\\n  - a\\n  - b") into one line."""
+    lines = [ln.strip() for ln in str(message).splitlines() if ln.strip()]
+    if not lines:
+        return "(no message)"
+    rest = [ln[2:] if ln.startswith("- ") else ln for ln in lines[1:]]
+    return " ".join([lines[0], "; ".join(rest)]) if rest else lines[0]
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _jsonable(value.tolist())
+    if isinstance(value, np.generic):
+        return _jsonable(value.item())
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
+def fmt(x: Any) -> str:
+    """A float to 3 significant digits, anything else as ``str``."""
+    return f"{x:.3g}" if isinstance(x, float) else str(x)
+
+
+# ============================================================================ options
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {v}")
+    return v
+
+
+def nonneg_float(text: str) -> float:
+    """argparse type: a finite number >= 0."""
+    v = _number(text)
+    if not (np.isfinite(v) and v >= 0):
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text}")
+    return v
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    v = _number(text)
+    if not (np.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text}")
+    return v
+
+
+def finite_float(text: str) -> float:
+    """argparse type: any finite number."""
+    v = _number(text)
+    if not np.isfinite(v):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text}")
+    return v
+
+
+def add_common(p: argparse.ArgumentParser) -> None:
+    """The options every subcommand takes: --json, --quiet, --debug."""
+    g = p.add_argument_group("output control")
+    g.add_argument("--json", action="store_true", help="print the result as JSON on stdout (nothing else there)")
+    g.add_argument("-q", "--quiet", action="store_true", help="no progress bars and no summary")
+    g.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                   help="show the full traceback of internal failures")
+
+
+# ============================================================================ files
+def check_output(path: str | None, formats: tuple[str, ...], what: str) -> Path | None:
+    """Validate an output path before any work: known suffix, existing writable folder."""
+    if path is None:
+        return None
+    from ..io.export import check_export_path
+
+    check_export_path(path, formats)
+    p = Path(path)
+    folder = p.parent
+    if not folder.is_dir():
+        raise OutputError(f"cannot write {what} {p}: folder {folder} does not exist")
+    if p.is_dir():
+        raise OutputError(f"cannot write {what} {p}: it is a folder")
+    if not os.access(folder, os.W_OK):
+        raise OutputError(f"cannot write {what} {p}: folder {folder} is not writable")
+    return p
+
+
+def distinct(paths: Sequence[Path | None]) -> None:
+    """Refuse one file named as two outputs."""
+    seen: dict[Path, Path] = {}
+    for p in paths:
+        if p is None:
+            continue
+        key = p.resolve()
+        if key in seen:
+            raise UsageError(f"{p} is named as two different outputs")
+        seen[key] = p
+
+
+def load_surface(path: str) -> Any:
+    """The :class:`~trispline.spline.surface.SplineSurface` in ``path`` (SurfaceFileError if unreadable)."""
+    from trispline.spline.surface import SplineSurface
+
+    return SplineSurface.load(path)
+
+
+def version() -> str:
+    """The installed package's version, or ``"unknown"`` in a bare source checkout."""
+    try:
+        from importlib.metadata import version as installed
+
+        return installed("trispline")
+    except Exception:  # noqa: BLE001 - not installed (source checkout)
+        return "unknown"
+
+
+# ============================================================================ running
+def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[str] | None = None) -> int:
+    """Parse ``argv`` with ``make_parser()`` and run the chosen command with the CLI's
+    error handling: one-line messages, exit 2 for bad input, 1 for internal failures."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    ui = UI(argparse.Namespace())
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", UserWarning)
+            shown = warnings.showwarning
+
+            def show(message, category, filename, lineno, file=None, line=None):
+                if issubclass(category, UserWarning):
+                    ui.warn(str(message))
+                else:  # pragma: no cover - third-party warnings keep their usual form
+                    shown(message, category, filename, lineno, file, line)
+
+            warnings.showwarning = show
+            try:
+                args = make_parser().parse_args(argv)
+                ui.json, ui.quiet = bool(getattr(args, "json", False)), bool(getattr(args, "quiet", False))
+                return int(args.func(args, ui))
+            finally:
+                warnings.showwarning = shown
+    except SystemExit as exc:  # --help, --version
+        return int(exc.code or 0) if not isinstance(exc.code, str) else EXIT_INPUT
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (InputError, CommandFailed) as exc:
+        if debug:
+            traceback.print_exc()
+        print(f"{PROG}: error: {one_line(str(exc))}", file=sys.stderr)
+        return EXIT_INPUT if isinstance(exc, InputError) else EXIT_FAILURE
+    except Exception as exc:  # noqa: BLE001 - the CLI's last line of defence
+        if debug:
+            traceback.print_exc()
+        hint = "" if debug else " (run with --debug for the traceback)"
+        print(f"{PROG}: internal error: {type(exc).__name__}: {one_line(str(exc))}{hint}", file=sys.stderr)
+        return EXIT_FAILURE

@@ -1,0 +1,70 @@
+"""``trispline info``: topology report of a mesh and whether ``fit`` accepts it (exit 3 if not).
+
+    trispline info MESH [--keep-largest]
+
+The counts come from :func:`trispline.param.inspect_mesh`; this module only formats them.
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from trispline.param import inspect_mesh
+
+from .common import EXIT_CHECK, EXIT_OK, UI, add_common, one_line
+
+__all__ = ["add_parser", "cmd_info"]
+
+
+def add_parser(sub: Any) -> None:
+    """Register ``info`` on an ``add_subparsers()`` action."""
+    p = sub.add_parser("info", help="topology report of a mesh and whether fit accepts it",
+                       description="Vertices, faces, boundary loops, holes, components, manifoldness, degenerate "
+                                   "faces, and what fit would reject and why. Exit 3 if fit would reject it.")
+    p.add_argument("mesh", metavar="MESH", help="input mesh (.obj .off .ply .stl .glb .gltf)")
+    p.add_argument("--keep-largest", action="store_true", help="judge as fit --keep-largest would")
+    add_common(p)
+    p.set_defaults(func=cmd_info)
+
+
+def _fit_verdict(validation: dict[str, Any]) -> dict[str, Any]:
+    """``inspect_mesh``'s validation verdict in the words of ``fit`` (one-line message)."""
+    if validation["accepted"]:
+        return dict(accepted=True, problems=[], message="fit accepts this mesh", repairs=validation["repairs"])
+    return dict(accepted=False, problems=validation["problems"], message=one_line(validation["message"]))
+
+
+def _info_text(d: dict) -> str:
+    deg = d["degenerate_faces"]
+    lines = [
+        f"{d['file']}: {d['vertices']} vertices, {d['faces']} faces, {d['edges']} edges"
+        + (f" ({d['dropped_unreferenced_vertices']} unreferenced vertices dropped)"
+           if d.get("dropped_unreferenced_vertices") else ""),
+        f"  components {d['components']}, boundary edges {d['boundary_edges']}, "
+        f"boundary loops {d.get('boundary_loops', '?')}, holes {d.get('holes', '?')}, "
+        f"genus {d.get('genus', '?')}, Euler characteristic {d['euler_characteristic']}",
+        f"  manifold {d['manifold']} (non-manifold edges {d['non_manifold_edges']}, "
+        f"bowtie vertices {d.get('bowtie_vertices', '?')}), degenerate faces: {deg['zero_area']} zero-area, "
+        f"{deg['repeated_vertex']} with a repeated vertex; non-finite vertices {d['non_finite_vertices']}",
+        f"  texture coordinates (vt): {'yes' if d.get('has_uv') else 'no'}",
+    ]
+    f = d["fit"]
+    if f["accepted"]:
+        lines.append("  fit: accepted" + (f" ({'; '.join(f['repairs'])})" if f.get("repairs") else ""))
+    else:
+        lines.append(f"  fit: REJECTED [{', '.join(f['problems'])}]: {f['message']}")
+    return "\n".join(lines)
+
+
+def cmd_info(args: argparse.Namespace, ui: UI) -> int:
+    """Body of ``trispline info``: exit 3 when ``fit`` would reject the mesh."""
+    from ..io import read_mesh
+
+    md = read_mesh(args.mesh)
+    report = inspect_mesh(md.V, md.F, keep_largest=args.keep_largest)
+    report["fit"] = _fit_verdict(report.pop("validation"))
+    data = dict(command="info", file=args.mesh, format=Path(args.mesh).suffix.lower()[1:],
+                dropped_unreferenced_vertices=md.dropped, has_uv=md.uv is not None, **report)
+    ui.result(data, _info_text)
+    return EXIT_OK if report["fit"]["accepted"] else EXIT_CHECK

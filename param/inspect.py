@@ -1,0 +1,90 @@
+"""Topology report of any triangle mesh, valid or not, and whether :func:`validate_mesh` accepts it.
+
+    rep = inspect_mesh(V, F)
+    rep["components"], rep["boundary_loops"], rep["manifold"], rep["validation"]["accepted"]
+
+Unlike :func:`validate_mesh`, which stops at the first stage that fails, this counts what
+it can on a broken mesh (several components, non-manifold edges, bowties, NaN
+coordinates), from the same tables (:mod:`trispline.param.tables`).
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from trispline.spline.checks import check_ids
+
+from .errors import MeshError
+from .tables import boundary_loop_count, fan_counts, undirected_edges, vertex_components
+from .validate import as_mesh_arrays, repeated_vertex_faces, validate_mesh, zero_area_faces
+
+
+def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) -> dict[str, Any]:
+    """Counts and checks of a mesh, and the verdict of ``validate_mesh(V, F, keep_largest=...)``.
+
+    Parameters
+    ----------
+    V : (nv, 3) float64 (a (nv, 2) array is lifted to z = 0); NaN and inf are counted, not refused
+    F : (nf, 3) int, ids in ``[0, nv)``
+
+    Returns
+    -------
+    dict
+        ``vertices``, ``faces``, ``non_finite_vertices``, ``bounds`` (of the finite vertices),
+        ``degenerate_faces`` (``repeated_vertex``, ``zero_area``), ``edges``, ``boundary_edges``,
+        ``non_manifold_edges``, ``components``, ``euler_characteristic``, ``bowtie_vertices``
+        (when no face repeats a vertex), ``manifold``; for a manifold mesh ``boundary_loops`` and
+        ``closed``, and with one component ``holes`` and ``genus``; last ``validation``:
+        ``accepted``, ``problems`` (the :class:`MeshError` kinds), ``message`` (the error's
+        text, empty when accepted) and ``repairs`` (what validation changed).
+
+    Raises
+    ------
+    MeshError
+        Arrays of the wrong shape or dtype; InputError for face ids outside ``[0, nv)``.
+    """
+    V, F = as_mesh_arrays(V, F)
+    nv, nf = V.shape[0], F.shape[0]
+    check_ids(F, "F", nv)
+    finite = np.isfinite(V).all(1)
+    rep: dict[str, Any] = dict(vertices=nv, faces=nf, non_finite_vertices=int((~finite).sum()))
+    if finite.any():
+        rep["bounds"] = [V[finite].min(0), V[finite].max(0)]
+    repeated = repeated_vertex_faces(F)
+    zero = zero_area_faces(V, F) if finite.all() else np.zeros(nf, bool)
+    rep["degenerate_faces"] = dict(repeated_vertex=int(repeated.sum()), zero_area=int((zero & ~repeated).sum()))
+    _, edges, he_edge, edge_count = undirected_edges(F, nv)
+    proper = edges[:, 0] != edges[:, 1]  # a face with a repeated vertex has an edge (a, a)
+    edges, count = edges[proper], edge_count[proper]
+    rep.update(edges=int(edges.shape[0]), boundary_edges=int((count == 1).sum()),
+               non_manifold_edges=int((count > 2).sum()))
+    used = np.zeros(nv, bool)
+    used[F.ravel()] = True
+    _, labels = vertex_components(F, nv)
+    rep["components"] = int(np.unique(labels[used]).size)
+    rep["euler_characteristic"] = int(used.sum() - edges.shape[0] + nf)
+    bow = 0
+    if not repeated.any():
+        bow = int((fan_counts(F, he_edge, nv) > 1).sum())
+        rep["bowtie_vertices"] = bow
+    rep["manifold"] = bool(rep["non_manifold_edges"] == 0 and bow == 0 and not repeated.any())
+    if rep["manifold"]:
+        loops = boundary_loop_count(edges, count, nv)
+        rep["boundary_loops"] = loops
+        rep["closed"] = loops == 0
+        if rep["components"] == 1:
+            rep["holes"] = max(loops - 1, 0)
+            rep["genus"] = (2 - rep["euler_characteristic"] - loops) / 2
+    rep["validation"] = _validation(V, F, keep_largest, rep)
+    return rep
+
+
+def _validation(V: np.ndarray, F: np.ndarray, keep_largest: bool, rep: dict[str, Any]) -> dict[str, Any]:
+    """The verdict of :func:`validate_mesh`; on success its loop, hole and genus counts go into ``rep``."""
+    try:
+        vm = validate_mesh(V, F, keep_largest=keep_largest)
+    except MeshError as exc:
+        return dict(accepted=False, problems=list(exc.kinds), message=str(exc), repairs=[])
+    rep.update({k: v for k, v in vm.report.items() if k in ("boundary_loops", "holes", "genus")})
+    return dict(accepted=True, problems=[], message="", repairs=list(vm.messages))

@@ -1,0 +1,145 @@
+"""Combinatorial tables of a triangle mesh in 3D: edges, components, face fans, orientation.
+
+One home for each table that :func:`~trispline.param.validate_mesh` and
+:func:`~trispline.param.inspect_mesh` both need. Nothing here judges the mesh or raises:
+the tables are defined for any ``faces (nf, 3)`` with ids in ``[0, nv)``, non-manifold,
+unoriented and multi-component meshes included (the planar
+:class:`~trispline.spline.topology.Triangulation` builds its own, stricter tables for a
+validated domain).
+
+Half-edge ``3 f + k`` of face ``f`` is opposite local vertex ``k``: it runs from
+``faces[f, k + 1]`` to ``faces[f, k + 2]`` (indices mod 3).
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+
+def halfedges(F: np.ndarray) -> np.ndarray:
+    """Directed half-edges ``(3 nf, 2)``: row ``3 f + k`` runs ``F[f, k+1] -> F[f, k+2]``."""
+    return np.stack([F[:, [1, 2, 0]], F[:, [2, 0, 1]]], axis=-1).reshape(-1, 2)
+
+
+def undirected_edges(F: np.ndarray, nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Half-edges and the undirected edges they lie on.
+
+    Returns ``he (3 nf, 2)`` (:func:`halfedges`), ``edges (ne, 2)`` with ``a <= b`` in
+    ascending order, ``he_edge (3 nf,)`` the edge of each half-edge and
+    ``edge_count (ne,)`` the number of half-edges on each edge (1 on the boundary, 2
+    inside, more on a non-manifold edge). A face with a repeated vertex id yields edges
+    ``(a, a)``.
+    """
+    he = halfedges(F)
+    key = np.minimum(he[:, 0], he[:, 1]) * nv + np.maximum(he[:, 0], he[:, 1])
+    uniq, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
+    edges = np.column_stack([uniq // nv, uniq % nv])
+    return he, edges, inv.ravel(), cnt
+
+
+def edge_pairs(he_edge: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs ``(h0 (n,), h1 (n,))`` of half-edges on the same edge, consecutive in half-edge
+    order (on a non-manifold edge the pairs form a chain, which keeps every face connected)."""
+    order = np.argsort(he_edge, kind="stable")
+    e_sorted = he_edge[order]
+    same = e_sorted[1:] == e_sorted[:-1]
+    return order[:-1][same], order[1:][same]
+
+
+def vertex_components(F: np.ndarray, nv: int) -> tuple[int, np.ndarray]:
+    """Vertex-connected components: ``(count, label per vertex (nv,))``; a vertex no face
+    uses is a component of its own."""
+    r = np.concatenate([F[:, 0], F[:, 1], F[:, 2]])
+    c = np.concatenate([F[:, 1], F[:, 2], F[:, 0]])
+    A = sp.coo_matrix((np.ones(r.size, np.int8), (r, c)), shape=(nv, nv)).tocsr()
+    return connected_components(A, directed=False)
+
+
+def fan_counts(F: np.ndarray, he_edge: np.ndarray, nv: int) -> np.ndarray:
+    """Number of face fans (edge-connected groups of the faces at a vertex) per vertex ``(nv,)``.
+
+    A manifold vertex has one fan; more than one is a bowtie. Needs no repeated vertex ids.
+    """
+    nf = F.shape[0]
+    # corner 3f+k sits at F[f, k]; half-edge 3f+k joins local (k+1, k+2)
+    he_face = np.repeat(np.arange(nf), 3)
+    he_k = np.tile(np.arange(3), nf)
+    h0, h1 = edge_pairs(he_edge)
+    rows, cols = [], []
+    for off in (1, 2):  # both endpoints of the edge
+        c0 = 3 * he_face[h0] + (he_k[h0] + off) % 3
+        v = F.ravel()[c0]
+        f1 = he_face[h1]
+        k1 = np.argmax(F[f1] == v[:, None], axis=1)
+        rows.append(c0)
+        cols.append(3 * f1 + k1)
+    r = np.concatenate(rows)
+    c = np.concatenate(cols)
+    A = sp.coo_matrix((np.ones(r.size, np.int8), (r, c)), shape=(3 * nf, 3 * nf)).tocsr()
+    _, lab = connected_components(A, directed=False)
+    key = np.unique(F.ravel() * np.int64(3 * nf) + lab)  # distinct (vertex, fan label)
+    return np.bincount(key // (3 * nf), minlength=nv)
+
+
+def orientation_classes(F: np.ndarray, he: np.ndarray, he_edge: np.ndarray) -> np.ndarray:
+    """Labels ``(2 nf,)`` of the orientation double cover of an edge-manifold mesh.
+
+    Node ``f`` is face ``f`` as given, node ``nf + f`` the face reversed; two nodes share a
+    label when their orientations must agree across the edges between them. The surface
+    is orientable iff ``labels[f] != labels[nf + f]`` for every ``f``.
+    """
+    nf = F.shape[0]
+    h0, h1 = edge_pairs(he_edge)
+    f0, f1 = h0 // 3, h1 // 3
+    consistent = he[h0, 0] == he[h1, 1]  # opposite traversal
+    a = np.where(consistent, f1, nf + f1)
+    b = np.where(consistent, nf + f1, f1)
+    r = np.concatenate([f0, nf + f0])
+    c = np.concatenate([a, b])
+    A = sp.coo_matrix((np.ones(r.size, np.int8), (r, c)), shape=(2 * nf, 2 * nf)).tocsr()
+    return connected_components(A, directed=False)[1]
+
+
+def boundary_loop_count(edges: np.ndarray, edge_count: np.ndarray, nv: int) -> int:
+    """Number of boundary loops of a manifold mesh, oriented or not: the connected
+    components of the graph of its boundary edges (``edge_count == 1``)."""
+    bnd = edges[edge_count == 1]
+    if not bnd.size:
+        return 0
+    B = sp.coo_matrix((np.ones(bnd.shape[0]), (bnd[:, 0], bnd[:, 1])), shape=(nv, nv))
+    _, lab = connected_components(B, directed=False)
+    return int(np.unique(lab[np.unique(bnd)]).size)
+
+
+def boundary_loops(V: np.ndarray, F: np.ndarray, he_edge: np.ndarray,
+                   edge_count: np.ndarray) -> list[np.ndarray]:
+    """Boundary loops ``[(n_i,) int64]`` of an oriented manifold mesh, longest (3D length)
+    first, each with the surface on its left.
+
+    ``he_edge`` and ``edge_count`` are :func:`undirected_edges` of ``F`` itself (a loop
+    starts at the first boundary half-edge in corner order ``(F0, F1), (F1, F2), (F2, F0)``).
+    """
+    nv, nf = V.shape[0], F.shape[0]
+    # corner order: half-edge 3f+2 (F0 -> F1) first, then 3f (F1 -> F2), then 3f+1 (F2 -> F0)
+    corner = (3 * np.arange(nf)[:, None] + np.array([2, 0, 1])).ravel()
+    corner = corner[edge_count[he_edge[corner]] == 1]
+    if corner.size == 0:
+        return []
+    bnd = halfedges(F)[corner]
+    succ = np.full(nv, -1, np.int64)
+    succ[bnd[:, 0]] = bnd[:, 1]
+    visited = np.zeros(nv, bool)
+    loops = []
+    for s in bnd[:, 0]:
+        if visited[s]:
+            continue
+        loop = []
+        v = s
+        while v >= 0 and not visited[v]:
+            visited[v] = True
+            loop.append(v)
+            v = succ[v]
+        loops.append(np.asarray(loop, np.int64))
+    length = [np.linalg.norm(V[l] - V[np.roll(l, -1)], axis=1).sum() for l in loops]
+    return [loops[i] for i in np.argsort(length, kind="stable")[::-1]]
