@@ -20,7 +20,8 @@ import numpy as np
 
 from trispline.param import DEFAULT_METHOD, METHODS
 
-from ..errors import CommandFailed, UsageError
+from ..errors import CommandFailed, FitError, UsageError
+from ..weights import FitWeights
 from .common import EXIT_OK, UI, add_common, check_output, distinct, fmt, nonneg_float, positive_int
 
 __all__ = ["WEIGHT_FIELDS", "FIT_STAGES", "EXAMPLE_FACES", "add_parsers", "cmd_fit", "cmd_demo"]
@@ -29,13 +30,10 @@ __all__ = ["WEIGHT_FIELDS", "FIT_STAGES", "EXAMPLE_FACES", "add_parsers", "cmd_f
 FIT_STAGES = ("parameterize", "build", "assemble", "factor", "solve", "finish")
 #: Default faces of the built-in example scan.
 EXAMPLE_FACES = 800
-#: One flag per :class:`~trispline.fit.pipeline.FitWeights` field (name, type). Listed here
-#: rather than read from the dataclass so that the parser does not import JAX (2 s);
-#: tests/fit/test_cli.py checks that this table matches ``dataclasses.fields(FitWeights)``.
-WEIGHT_FIELDS: tuple[tuple[str, type], ...] = (
-    ("bend", float), ("tilt", float), ("local", float), ("data", float), ("angle", float),
-    ("fit_degree", int), ("fit_rings", int), ("blend_power", float),
-)
+#: One flag per :class:`~trispline.fit.weights.FitWeights` field: ``(name, type of its default)``
+#: (``trispline.fit.weights`` imports no JAX, so the parser stays fast).
+WEIGHT_FIELDS: tuple[tuple[str, type], ...] = tuple(
+    (f.name, type(f.default)) for f in dataclasses.fields(FitWeights))
 
 
 # ============================================================================ parser
@@ -204,7 +202,7 @@ def _solve(args: argparse.Namespace, ui: UI, mesh: _Input) -> tuple[Any, Any, fl
         import jax
 
         jax.config.update("jax_enable_x64", True)
-        from ..pipeline import FitError, FitWeights, fit_surface
+        from ..pipeline import fit_surface
 
         bar.done()
         given = {name: getattr(args, f"w_{name}") for name, _ in WEIGHT_FIELDS
