@@ -5,7 +5,7 @@
   only ``if TYPE_CHECKING:`` blocks, which never run, are left out;
 * no import of a private module (a path component starting with ``_``, such as
   ``trispline.param._igl``) from another layer, or from tests, examples or benchmarks; no
-  import of a private name (``from trispline.param.validate import _fan_counts``) from another
+  import of a private name (``from trispline.param.validate import _raise``) from another
   layer's module;
 * layering: ``trispline.spline`` imports neither ``trispline.param`` nor ``trispline.fit``, and
   ``trispline.param`` does not import ``trispline.fit`` (anywhere in the file, lazy imports too);

@@ -59,11 +59,6 @@ class UI:
             self.warnings.append(message)
             print(f"{PROG}: warning: {message}", file=sys.stderr, flush=True)
 
-    def note(self, message: str) -> None:
-        """A progress note on stderr (silenced by --quiet)."""
-        if not self.quiet:
-            print(f"{PROG}: {message}", file=sys.stderr, flush=True)
-
     def result(self, data: dict, text: Callable[[dict], str]) -> None:
         """The command's result: JSON or text on stdout (text silenced by --quiet)."""
         if self.json:
