@@ -113,6 +113,9 @@ RBF_LOO_POINTS = 7
 #: Vertices are solved in chunks of this many (memory: chunk * (K + 11)**2 floats).
 RBF_CHUNK = 4096
 _NPOLY = 10  # cubic polynomial columns, constant included
+#: Damping of the linear trend's 2 x 2 normal matrix, relative to its trace: keeps a
+#: neighbourhood on one line solvable without touching any other (a regularisation, not a test).
+TREND_RIDGE = 1e-12
 
 
 def _poly3(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -209,7 +212,7 @@ def _local_scale(uv: np.ndarray, faces: np.ndarray, nv: int) -> np.ndarray:
 def _linear_trend(X: np.ndarray, Y: np.ndarray) -> np.ndarray:
     """``(nv, 2, d)`` least-squares slopes through each vertex of ``Y (nv, K, d)`` over ``X (nv, K, 2)``."""
     G = np.einsum("vki,vkj->vij", X, X)
-    G += (1e-12 * np.einsum("vii->v", G) + TINY)[:, None, None] * np.eye(2)
+    G += (TREND_RIDGE * np.einsum("vii->v", G) + TINY)[:, None, None] * np.eye(2)
     return np.linalg.solve(G, np.einsum("vki,vkd->vid", X, Y))
 
 

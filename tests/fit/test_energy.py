@@ -75,6 +75,14 @@ def test_term_registry_follows_the_weights():
         assert m.LINEAR == hasattr(m, "add_normal"), m.NAME
 
 
+def _linear_residuals(x, args):
+    res = en.residuals(x, args)
+    return jnp.concatenate([res[m.NAME].reshape(-1, 3) for m in en.MODULES if m.LINEAR])
+
+
+_linear_jacobian = jax.jit(jax.jacrev(_linear_residuals))
+
+
 @pytest.mark.parametrize("weights", [FitWeights(), FitWeights(bend=0.5, tilt=0.0, local=7.0, data=3.0)])
 def test_normal_equations_are_the_residuals_jacobian(weights):
     """H = J^T J and rhs = -J^T r(0) of the linear terms' JAX residuals (coordinate by coordinate)."""
@@ -85,19 +93,13 @@ def test_normal_equations_are_the_residuals_jacobian(weights):
     face = rng.integers(0, space.tri.n_faces, 30)
     dp = en.DataPoints(face, rng.dirichlet([1, 1, 1], 30), rng.normal(size=(30, 3)))
     prob = en.setup_problem(V, space, weights, dp)
-    k = prob.free_r.size
-
-    def linear(x):
-        res = en.residuals(x, prob.args)
-        return jnp.concatenate([res[m.NAME].reshape(-1, 3) for m in en.MODULES if m.LINEAR])
-
-    x0 = jnp.zeros((k, 3))
-    J = np.asarray(jax.jacfwd(linear)(x0))  # (rows, 3, k, 3): separable, the same in each coordinate
+    x0 = jnp.zeros((prob.free_r.size, 3))
+    J = np.asarray(_linear_jacobian(x0, prob.args))  # (rows, 3, k, 3): separable, the same in each coordinate
+    r0 = np.asarray(_linear_residuals(x0, prob.args))
     for c in range(3):
-        Jc = J[:, c, :, c]
+        Jc = np.ascontiguousarray(J[:, c, :, c])
         np.testing.assert_allclose(prob.H.toarray(), Jc.T @ Jc, rtol=0, atol=1e-10 * np.abs(prob.H).max())
-        np.testing.assert_allclose(prob.rhs[:, c], -Jc.T @ np.asarray(linear(x0))[:, c], rtol=0,
-                                   atol=1e-10 * np.abs(prob.rhs).max())
+        np.testing.assert_allclose(prob.rhs[:, c], -Jc.T @ r0[:, c], rtol=0, atol=1e-10 * np.abs(prob.rhs).max())
     np.testing.assert_allclose(J[:, 0, :, 1], 0.0, atol=0)
 
 
