@@ -8,12 +8,17 @@ Not quadratic: Gauss--Newton iterates, with the linear terms' factor as precondi
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from trispline.spline.tolerances import TINY
 
 from ..targets import area_weighted_normals, fitted_normals
-from .arrays import array_module
+from .arrays import Array, array_module
+
+if TYPE_CHECKING:
+    from .context import TermContext
 
 NAME = "angle"
 LINEAR = False
@@ -21,7 +26,7 @@ LINEAR = False
 SCALE_EXPONENT = 0
 
 
-def setup(ctx) -> dict[str, np.ndarray]:
+def setup(ctx: TermContext) -> dict[str, np.ndarray]:
     """``pair (m, 2)`` rows of the frames array, corner ``z (m, 3)``, ``normal (m, 3)``, ``scale (m,)``."""
     w = ctx.weights
     if w.angle <= 0:
@@ -35,7 +40,7 @@ def setup(ctx) -> dict[str, np.ndarray]:
     return dict(pair=pair, z=ctx.V[fv], normal=normal, scale=scale)
 
 
-def residual(ctrl, frames, a: dict):
+def residual(ctrl: Array, frames: Array, a: dict) -> Array:
     """``(m, 3)`` scaled differences between the frames' unit normals and the target normals."""
     xp = array_module(frames)
     tu = frames[a["pair"][:, 0]] - a["z"]

@@ -2,10 +2,14 @@
 from __future__ import annotations
 
 from types import ModuleType
+from typing import Union
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+#: A host or device array: the residuals accept either.
+Array = Union[np.ndarray, jax.Array]
 
 
 def array_module(*arrays) -> ModuleType:

@@ -8,12 +8,18 @@ same ``W``, so the residual and the normal matrix cannot disagree.
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from trispline.spline.index import NCTRL
 
-from .arrays import array_module
+from .arrays import Array, array_module
 from .quadrature import PAIRS, pair_hessians, pair_moments
+
+if TYPE_CHECKING:
+    from .context import TermContext
+    from .normal import NormalParts
 
 NAME = "bend"
 LINEAR = True
@@ -54,19 +60,19 @@ def thin_plate_gram(bary_grad: np.ndarray, areas: np.ndarray) -> np.ndarray:
     return gram(bend_weights(bary_grad, areas, 1.0))
 
 
-def setup(ctx) -> dict[str, np.ndarray]:
+def setup(ctx: TermContext) -> dict[str, np.ndarray]:
     """``D (Q, 6, 21)``, ``sqw (Q,)`` (quadrature tables) and ``W (n, 6, 3)`` of the patches."""
     D, sqw = pair_hessians()
     return dict(D=D, sqw=sqw, W=bend_weights(ctx.bary_gradients, ctx.areas, ctx.weights.bend))
 
 
-def residual(ctrl, frames, a: dict):
+def residual(ctrl: Array, frames: Array, a: dict) -> Array:
     """``(n, Q, 3, d)``: the scaled ``F_uu, sqrt2 F_uv, F_vv`` of patches ``ctrl (n, 21, d)``."""
     xp = array_module(ctrl)
     d2 = xp.einsum("qpi,fic->fqpc", a["D"], ctrl)
     return xp.einsum("fqpc,fps,q->fqsc", d2, a["W"], a["sqw"])
 
 
-def add_normal(parts, a: dict) -> None:
+def add_normal(parts: NormalParts, a: dict) -> None:
     """Adds the Gram matrices to the patch blocks (no target: nothing on the right-hand side)."""
     parts.blocks += gram(a["W"])

@@ -7,6 +7,7 @@ there are per vertex.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -15,7 +16,11 @@ from trispline.spline.checks import as_array, check_ids
 from trispline.spline.errors import InputError
 from trispline.spline.index import NCTRL
 
-from .arrays import array_module
+from .arrays import Array, array_module
+
+if TYPE_CHECKING:
+    from .context import TermContext
+    from .normal import NormalParts
 
 __all__ = ["DataPoints", "as_data_points"]
 
@@ -59,7 +64,7 @@ def as_data_points(data_points, n_faces: int) -> DataPoints:
                       as_array(xyz, "data_points xyz", (n, 3), finite=True))
 
 
-def setup(ctx) -> dict[str, np.ndarray]:
+def setup(ctx: TermContext) -> dict[str, np.ndarray]:
     """``face (s,)``, ``basis (s, 21)``, ``target (s, 3)`` and ``scale (s,)`` of the samples (none: empty)."""
     dp = ctx.data_points
     if dp is None:
@@ -69,14 +74,14 @@ def setup(ctx) -> dict[str, np.ndarray]:
     return dict(face=dp.face, basis=basis(dp.bary), target=dp.xyz, scale=scale)
 
 
-def residual(ctrl, frames, a: dict):
+def residual(ctrl: Array, frames: Array, a: dict) -> Array:
     """``(s, d)`` scaled errors of the surface of ``ctrl (n, 21, d)`` at the samples."""
     xp = array_module(ctrl)
     vals = xp.einsum("nk,nkc->nc", a["basis"], ctrl[a["face"]])
     return a["scale"][:, None] * (vals - a["target"])
 
 
-def add_normal(parts, a: dict) -> None:
+def add_normal(parts: NormalParts, a: dict) -> None:
     """Adds ``s^2 b b^T`` and ``s^2 b xyz^T`` of every sample ``b = basis`` to its patch."""
     for lo in range(0, a["face"].size, _CHUNK):
         sl = slice(lo, lo + _CHUNK)

@@ -9,12 +9,18 @@ out: the interpolation and the ``tilt`` term fix them.
 """
 from __future__ import annotations
 
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from trispline.spline.bernstein import basis
 from trispline.spline.index import CORNER, DEGREE, EXPONENTS, NCTRL, STAR
+
+from .arrays import Array
+
+if TYPE_CHECKING:
+    from .context import TermContext
+    from .normal import NormalParts
 
 NAME = "local"
 LINEAR = True
@@ -49,7 +55,7 @@ def blended_targets(uv: np.ndarray, faces: np.ndarray, evaluate_fit: Callable, *
     return out
 
 
-def setup(ctx) -> dict[str, np.ndarray]:
+def setup(ctx: TermContext) -> dict[str, np.ndarray]:
     """``index (r,)`` into the flattened patch points ``(21 n)``, ``target (r, 3)``, ``scale (r,)``."""
     w = ctx.weights
     n = ctx.faces.shape[0]
@@ -60,12 +66,12 @@ def setup(ctx) -> dict[str, np.ndarray]:
     return dict(index=face * NCTRL + slot, target=target[face, slot], scale=np.sqrt(w.local / ctx.areas[face]))
 
 
-def residual(ctrl, frames, a: dict):
+def residual(ctrl: Array, frames: Array, a: dict) -> Array:
     """``(r, d)`` scaled errors of the patch points ``ctrl (n, 21, d)``."""
     return a["scale"][:, None] * (ctrl.reshape(-1, ctrl.shape[-1])[a["index"]] - a["target"])
 
 
-def add_normal(parts, a: dict) -> None:
+def add_normal(parts: NormalParts, a: dict) -> None:
     """Adds ``scale^2`` on the blocks' diagonals (every row is one patch point, each once)."""
     w = a["scale"] ** 2
     face, slot = np.divmod(a["index"], NCTRL)

@@ -7,7 +7,15 @@ area: like a first derivative error squared, integrated over the vertex's share 
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+from .arrays import Array
+
+if TYPE_CHECKING:
+    from .context import TermContext
+    from .normal import NormalParts
 
 NAME = "tilt"
 LINEAR = True
@@ -15,7 +23,7 @@ LINEAR = True
 SCALE_EXPONENT = 2
 
 
-def setup(ctx) -> dict[str, np.ndarray]:
+def setup(ctx: TermContext) -> dict[str, np.ndarray]:
     """``target (2m, 3)`` and ``scale (2m,)`` of the frame points (``u`` frames, then ``v`` frames)."""
     d = ctx.frame_scale
     Vf = ctx.V[ctx.frame_vertices]
@@ -26,12 +34,13 @@ def setup(ctx) -> dict[str, np.ndarray]:
     return dict(target=target, scale=scale)
 
 
-def residual(ctrl, frames, a: dict):
+def residual(ctrl: Array, frames: Array, a: dict) -> Array:
     """``(2m, d)`` scaled frame errors of ``frames (2m, d)``."""
     return a["scale"][:, None] * (frames - a["target"])
 
 
-def add_normal(parts, a: dict) -> None:
+def add_normal(parts: NormalParts, a: dict) -> None:
+    """Adds ``scale^2`` to the frame diagonals, ``scale^2 target`` to their right-hand sides."""
     w = a["scale"] ** 2
     parts.frame_weight += w
     parts.frame_rhs += w[:, None] * a["target"]
