@@ -15,30 +15,32 @@ tangent derivatives (at corners, of the two star-point differences).
 
 Vertex numbering: domain vertices first (vertex ``v`` is tessellation vertex
 ``v``), then edge samples ``V + (s - 1) E + slot(e)`` (edges in an internal
-order), then interior samples ``V + (r - 1) E + q F + f``. Samples are evaluated by one BLAS
+order), then interior samples ``V + (r - 1) E + q F + f`` (``q``: the sample's rank among a
+face's interior points of :func:`~trispline.spline.index.lattice`). The triangles of a face
+are :func:`~trispline.spline.index.lattice_triangles`. Samples are evaluated by one BLAS
 product per range of about ``TASK_PATCHES`` patches (so the temporaries stay in cache), the
 ranges run on a thread per core; there is no per-face Python loop.
 """
 from __future__ import annotations
 
-import contextlib
-import os
-import threading
-from concurrent.futures import ThreadPoolExecutor
-
-from functools import lru_cache
+from functools import lru_cache, partial
 from typing import NamedTuple
 
 import numpy as np
 
-from .util import gather as _gather, memory as _memory
-from .index import CORNER, NCTRL, STAR
-from .bernstein import basis, basis_gradient_bary
+from .bernstein import bary_grid, basis, basis_gradient_bary
 from .errors import InputError
+from .index import CORNER, NCTRL, STAR, lattice, lattice_triangles
 from .patches import check_ctrl
 from .topology import Triangulation
+from .util import gather as _gather, memory as _memory, parallel as _parallel
 
 __all__ = ["Tessellation", "tessellate", "tessellation_counts"]
+
+#: Meshes with fewer faces are tessellated on the calling thread only.
+PARALLEL_FACES = 8192
+#: Patches per evaluation task: keeps each task's temporaries in cache.
+TASK_PATCHES = 8192
 
 
 class Tessellation(NamedTuple):
@@ -62,45 +64,64 @@ def tessellation_counts(n_vertices: int, n_edges: int, n_faces: int, resolution:
     return n_vertices + (r - 1) * n_edges + (r - 1) * (r - 2) // 2 * n_faces, r * r * n_faces
 
 
-@lru_cache(maxsize=16)
-def _local_layout(r: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Per-face grid layout for resolution ``r``.
+class _Layout(NamedTuple):
+    """The sample lattice of one face at resolution ``r``, by what each point shares.
 
-    Returns
-    -------
-    jk : (n, 2) lattice coordinates (j, k) of the grid points (bary = (r-j-k, j, k) / r)
-    kind : (n,) 0 corner, 1 edge, 2 interior
-    a, b : (n,) for corners: local vertex; for edges: local vertex opposite the edge and
-        the step count ``s`` from local ``(k+1) % 3``; for interior: running index q
-    tris : (r^2, 3) local triangles (indices into the grid points)
+    bary : (n, 3) barycentric coordinates, ``lattice(r) / r``
+    corner : (3,) lattice points at the corners; ``corner_local``: their local vertex
+    edge : (3 (r - 1),) points inside the edges; ``edge_local``: the local vertex opposite
+        the edge, ``edge_step``: the step count ``s`` from local vertex ``(k + 1) % 3``
+    inner : ((r - 1)(r - 2) / 2,) interior points, in lattice order
+    tris : (r^2, 3) local triangles (indices into the lattice)
     """
-    # (i, j, k) with i descending, then j descending (the order of bary_grid)
-    pts = [(i, j, r - i - j) for i in range(r, -1, -1) for j in range(r - i, -1, -1)]
-    index = {p: n for n, p in enumerate(pts)}
-    n = len(pts)
-    kind = np.empty(n, np.int64)
-    a = np.empty(n, np.int64)
-    b = np.zeros(n, np.int64)
-    q = 0
-    for m, p in enumerate(pts):
-        zeros = [c for c in range(3) if p[c] == 0]
-        if len(zeros) == 2:
-            kind[m], a[m] = 0, [c for c in range(3) if p[c] == r][0]
-        elif len(zeros) == 1:
-            k = zeros[0]
-            kind[m], a[m], b[m] = 1, k, p[(k + 2) % 3]
-        else:
-            kind[m], a[m] = 2, q
-            q += 1
-    tris = []
-    for j in range(r):
-        for k in range(r - j):
-            tris.append((index[(r - j - k, j, k)], index[(r - j - k - 1, j + 1, k)], index[(r - j - k - 1, j, k + 1)]))
-            if j + k <= r - 2:
-                tris.append((index[(r - j - k - 1, j + 1, k)], index[(r - j - k - 2, j + 1, k + 1)],
-                             index[(r - j - k - 1, j, k + 1)]))
-    jk = np.array([(p[1], p[2]) for p in pts], np.int64)
-    return jk, kind, a, b, np.array(tris, np.int64)
+
+    bary: np.ndarray
+    corner: np.ndarray
+    corner_local: np.ndarray
+    edge: np.ndarray
+    edge_local: np.ndarray
+    edge_step: np.ndarray
+    inner: np.ndarray
+    tris: np.ndarray
+
+
+@lru_cache(maxsize=16)
+def _local_layout(r: int) -> _Layout:
+    """:class:`_Layout` for resolution ``r >= 1``."""
+    pts = lattice(r)
+    zeros = (pts == 0).sum(1)
+    corner, edge, inner = (np.flatnonzero(zeros == z) for z in (2, 1, 0))
+    k = np.argmax(pts[edge] == 0, axis=1)  # the zero coordinate: the local vertex opposite the edge
+    return _Layout(bary=bary_grid(r), corner=corner, corner_local=np.argmax(pts[corner] == r, axis=1),
+                   edge=edge, edge_local=k, edge_step=pts[edge, (k + 2) % 3], inner=inner,
+                   tris=lattice_triangles(r))
+
+
+class _Owners(NamedTuple):
+    """Each edge's owner face, which evaluates its ``r - 1`` samples from its local ``k + 1`` to ``k + 2``.
+
+    Edges are stored grouped by that local index ``k``: ``order`` lists them so, ``slot`` is the
+    inverse (each edge's position). All ``(E,)``.
+    """
+
+    face: np.ndarray
+    k: np.ndarray
+    order: np.ndarray
+    slot: np.ndarray
+    start: np.ndarray  # vertex at local k + 1 of the owner
+    end: np.ndarray  # vertex at local k + 2
+
+
+def _edge_owners(tri: Triangulation) -> _Owners:
+    ne, F = tri.n_edges, tri.faces
+    ef, eo = tri.edge_faces, tri.edge_opposite
+    own = np.where(ef[:, 0] >= 0, 0, 1)
+    f0 = ef[np.arange(ne), own]
+    k0 = eo[np.arange(ne), own]
+    order = np.argsort(k0, kind="stable")
+    slot = np.empty(ne, np.int64)
+    slot[order] = np.arange(ne)
+    return _Owners(f0, k0, order, slot, F[f0, (k0 + 1) % 3], F[f0, (k0 + 2) % 3])
 
 
 def _cross_normalise(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -145,90 +166,18 @@ def _write_samples(values: np.ndarray, normals: np.ndarray, rows: np.ndarray, ct
         normals[...] = _cross_normalise(prod[1].transpose(1, 0, 2), prod[2].transpose(1, 0, 2)).transpose(1, 2, 0)
 
 
-#: Faces per chunk below which tessellation stays on one thread.
-CHUNK_FACES = 4096
-#: Patches per evaluation task: keeps each task's temporaries in cache.
-TASK_PATCHES = 8192
+class _Block(NamedTuple):
+    """A block of tessellation vertices, sample-major: ``(samples, items, ...)`` views of the outputs."""
 
-_blas_lock = threading.Lock()
-_blas_state: dict = {"controller": None, "limiter": None, "users": 0}
-
-
-@contextlib.contextmanager
-def _single_threaded_blas():
-    """Context in which BLAS runs on the calling thread only.
-
-    The evaluation tasks call BLAS from several Python threads at once; a BLAS
-    that threads each call as well oversubscribes the cores (measured slower).
-    The limit is process-wide; concurrent tessellations share it, the first one
-    in sets it and the last one out restores the original thread count.
-    """
-    try:
-        from threadpoolctl import ThreadpoolController
-    except ImportError:  # pragma: no cover - threadpoolctl is a dependency
-        yield
-        return
-    with _blas_lock:
-        if _blas_state["users"] == 0:
-            if _blas_state["controller"] is None:
-                _blas_state["controller"] = ThreadpoolController()
-            _blas_state["limiter"] = _blas_state["controller"].limit(limits=1, user_api="blas")
-        _blas_state["users"] += 1
-    try:
-        yield
-    finally:
-        with _blas_lock:
-            _blas_state["users"] -= 1
-            if _blas_state["users"] == 0:
-                _blas_state["limiter"].restore_original_limits()
-                _blas_state["limiter"] = None
+    values: np.ndarray
+    normals: np.ndarray
+    uv: np.ndarray
 
 
-class _Workers:
-    """Run tasks on a thread per core when the mesh is large enough, else inline.
-
-    ``chunks`` splits the faces for per-face tasks; leaving the ``with`` block waits
-    for every task and re-raises the first error. While tasks run in threads, BLAS
-    is limited to one thread per call.
-    """
-
-    def __init__(self, n: int) -> None:
-        workers = min(os.cpu_count() or 1, 8, max(1, n // CHUNK_FACES))
-        self._pool = ThreadPoolExecutor(workers) if workers > 1 else None
-        self._blas = _single_threaded_blas() if workers > 1 else contextlib.nullcontext()
-        self.chunks = self.split(n, 2 * workers if workers > 1 else 1)
-        self._futures = []
-
-    @staticmethod
-    def split(n: int, parts: int) -> list[tuple[int, int]]:
-        bounds = np.linspace(0, n, max(1, parts) + 1).astype(int)
-        return [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
-
-    def task_chunks(self, n: int) -> list[tuple[int, int]]:
-        """Ranges of at most about ``TASK_PATCHES``, at least two per worker."""
-        parts = max(-(-n // TASK_PATCHES), len(self.chunks) if self._pool is not None else 1)
-        return self.split(n, parts)
-
-    def submit(self, fn, *args) -> None:
-        if self._pool is None:
-            fn(*args)
-        else:
-            self._futures.append(self._pool.submit(fn, *args))
-
-    def __enter__(self) -> "_Workers":
-        self._blas.__enter__()
-        return self
-
-    def __exit__(self, *exc) -> None:
-        try:
-            if self._pool is not None:
-                try:
-                    for fut in self._futures:
-                        fut.result()
-                finally:
-                    self._pool.shutdown(wait=True)
-        finally:
-            self._blas.__exit__(None, None, None)
+def _block(mesh: Tessellation, lo: int, n: int, items: int) -> _Block:
+    """Vertices ``lo : lo + n items`` of ``mesh`` as ``n`` samples of ``items`` each."""
+    hi = lo + n * items
+    return _Block(*(a[lo:hi].reshape(n, items, a.shape[1]) for a in (mesh.vertices, mesh.normals, mesh.uv)))
 
 
 def tessellate(
@@ -256,104 +205,102 @@ def tessellate(
     if r < 1 or r != resolution:
         raise InputError(f"resolution must be an integer >= 1, got {resolution}")
     tri = triangulation if triangulation is not None else Triangulation(uv, faces)
-    F = tri.faces
-    ctrl = check_ctrl(F, ctrl)
-    nv, nf, ne = tri.n_vertices, tri.n_faces, tri.n_edges
-    d = ctrl.shape[2]
-    UV = tri.uv
-    jk, kind, la, lb, ltris = _local_layout(r)
-    inner = kind == 2
-    n_inner = int(inner.sum())
-    m = nv + (r - 1) * ne + n_inner * nf
-    vertices = np.empty((m, d))
-    normals = np.empty((m, 3 if d == 3 else 0))
-    uv_pts = np.empty((m, 2))
-    # --- edge ownership: r - 1 samples per edge on an owner face, from its local k+1 to
-    # k+2; edges are stored grouped by that local index k (slot order)
-    ef, eo = tri.edge_faces, tri.edge_opposite
-    own = np.where(ef[:, 0] >= 0, 0, 1)
-    f0 = ef[np.arange(ne), own]
-    k0 = eo[np.arange(ne), own]
-    order = np.argsort(k0, kind="stable")
-    slot = np.empty(ne, np.int64)
-    slot[order] = np.arange(ne)
-    start = F[f0, (k0 + 1) % 3]
-    end = F[f0, (k0 + 2) % 3]
+    ctrl = check_ctrl(tri.faces, ctrl)
+    d, nf = ctrl.shape[2], tri.n_faces
+    lay, owners = _local_layout(r), _edge_owners(tri)
+    m, nt = tessellation_counts(tri.n_vertices, tri.n_edges, nf, r)
+    mesh = Tessellation(np.empty((m, d)), np.empty((nt, 3), _memory.index_dtype(m)),
+                        np.empty((m, 3 if d == 3 else 0)), np.empty((m, 2)))
+    with _parallel.Workers(nf, parallel_min=PARALLEL_FACES, serial_blas=True) as work:
+        chunk = work.chunk(nf, TASK_PATCHES)
+        # the triangles need no surface values: they run in threads while this thread queues the rest
+        jobs = work.start(partial(_triangles, tri, r, lay, owners, mesh.triangles), nf, chunk)
+        jobs += _interior_jobs(work, tri, r, lay, ctrl, mesh)
+        jobs += _edge_jobs(work, tri, r, owners, ctrl, mesh)
+        _corners(tri, ctrl, mesh)  # here, while the tasks run
+        for job in jobs:
+            job.result()
+    return mesh
 
-    # --- the per-face vertex ids need no surface values: they start at once on face
-    # chunks in threads (numpy releases the GIL) while this thread evaluates
+
+def _triangles(tri: Triangulation, r: int, lay: _Layout, owners: _Owners, triangles: np.ndarray,
+               lo: int, hi: int) -> None:
+    """The triangles of faces ``lo:hi``: each face's lattice triangles on global vertex ids."""
+    F, nv, ne, nf = tri.faces, tri.n_vertices, tri.n_edges, tri.n_faces
+    nt = lay.tris.shape[0]
+    gid = np.empty((hi - lo, lay.bary.shape[0]), triangles.dtype)
+    gid[:, lay.corner] = F[lo:hi, lay.corner_local]
+    if lay.edge.size:
+        ke = lay.edge_local
+        e = tri.face_edges[lo:hi, ke]  # (chunk, 3 (r - 1))
+        forward = F[lo:hi, (ke + 1) % 3] == owners.start[e]
+        s = np.where(forward, lay.edge_step[None, :], r - lay.edge_step[None, :])
+        gid[:, lay.edge] = nv + (s - 1) * ne + owners.slot[e]
     base = nv + (r - 1) * ne
-    n = jk.shape[0]
-    idx_t = _memory.index_dtype(m)
-    nt = ltris.shape[0]
-    triangles = np.empty((nf * nt, 3), idx_t)
-    cm = np.flatnonzero(kind == 0)
-    em = np.flatnonzero(kind == 1)
-    im = np.flatnonzero(inner)
-    ke, se = la[em], lb[em]
+    gid[:, lay.inner] = base + np.arange(lay.inner.size)[None, :] * nf + np.arange(lo, hi)[:, None]
+    # mode="clip": valid ids by construction, and "raise" would buffer the output
+    np.take(gid, lay.tris.ravel(), axis=1, out=triangles[lo * nt : hi * nt].reshape(hi - lo, 3 * nt), mode="clip")
 
-    def ids_chunk(lo: int, hi: int) -> None:
-        gid = np.empty((hi - lo, n), idx_t)
-        gid[:, cm] = F[lo:hi, la[cm]]
-        if em.size:
-            e = tri.face_edges[lo:hi, ke]  # (chunk, m)
-            forward = F[lo:hi, (ke + 1) % 3] == start[e]
-            s = np.where(forward, se[None, :], r - se[None, :])
-            gid[:, em] = nv + (s - 1) * ne + slot[e]
-        gid[:, im] = base + la[im][None, :] * nf + np.arange(lo, hi)[:, None]
-        # mode="clip": valid ids by construction, and "raise" would buffer the output
-        np.take(gid, ltris.ravel(), axis=1, out=triangles[lo * nt : hi * nt].reshape(hi - lo, 3 * nt), mode="clip")
 
-    with _Workers(nf) as work:
-        for lo, hi in work.chunks:
-            work.submit(ids_chunk, lo, hi)
+def _interior_jobs(work: _parallel.Workers, tri: Triangulation, r: int, lay: _Layout, ctrl: np.ndarray,
+                   mesh: Tessellation) -> list:
+    """Interior samples: per face range, one BLAS product for points and normals."""
+    if lay.inner.size == 0:
+        return []
+    nf, ne, nv = tri.n_faces, tri.n_edges, tri.n_vertices
+    ib = lay.bary[lay.inner]
+    out = _block(mesh, nv + (r - 1) * ne, lay.inner.size, nf)
+    return work.start(partial(_interior_range, tri, ib, _basis_rows(ib, ctrl.shape[2]), ctrl, out),
+                      nf, work.chunk(nf, TASK_PATCHES))
 
-        # --- interior samples: per face range, one BLAS product, points and normals
-        if n_inner:
-            ib = np.column_stack([r - jk[inner].sum(1), jk[inner, 0], jk[inner, 1]]) / r
-            rows_in = _basis_rows(ib, d)
-            vin = vertices[base:].reshape(n_inner, nf, d)
-            nin = normals[base:].reshape(n_inner, nf, normals.shape[1])
-            uin = uv_pts[base:].reshape(n_inner, nf, 2)
 
-            def interior_chunk(lo: int, hi: int) -> None:
-                _write_samples(vin[:, lo:hi], nin[:, lo:hi], rows_in, ctrl[lo:hi])
-                # uv of the samples: a matmul (an einsum here took 15x longer)
-                corner_uv = _gather.rows(UV, F[lo:hi]).transpose(1, 0, 2).reshape(3, -1)
-                uin[:, lo:hi] = (ib @ corner_uv).reshape(n_inner, hi - lo, 2)
+def _interior_range(tri: Triangulation, ib: np.ndarray, rows: np.ndarray, ctrl: np.ndarray, out: _Block,
+                    lo: int, hi: int) -> None:
+    _write_samples(out.values[:, lo:hi], out.normals[:, lo:hi], rows, ctrl[lo:hi])
+    # uv of the samples: a matmul (an einsum here took 15x longer)
+    corner_uv = _gather.rows(tri.uv, tri.faces[lo:hi]).transpose(1, 0, 2).reshape(3, -1)
+    out.uv[:, lo:hi] = (ib @ corner_uv).reshape(ib.shape[0], hi - lo, 2)
 
-            for lo, hi in work.task_chunks(nf):
-                work.submit(interior_chunk, lo, hi)
 
-        # --- edges: r - 1 samples on the owner face, one sample set per local index k
-        if r > 1:
-            t = np.arange(1, r) / r
-            vb = vertices[nv:base].reshape(r - 1, ne, d)
-            nb = normals[nv:base].reshape(r - 1, ne, normals.shape[1])
-            ub = uv_pts[nv:base].reshape(r - 1, ne, 2)
-            f_sorted, start_sorted, end_sorted = f0[order], start[order], end[order]
-            bounds = np.searchsorted(k0[order], [0, 1, 2, 3])
+def _edge_jobs(work: _parallel.Workers, tri: Triangulation, r: int, owners: _Owners, ctrl: np.ndarray,
+               mesh: Tessellation) -> list:
+    """Edges: ``r - 1`` samples on the owner face, one sample set per local index ``k``
+    (three relabelled sample sets, not a per-face loop)."""
+    if r == 1:
+        return []
+    nv, ne = tri.n_vertices, tri.n_edges
+    t = np.arange(1, r) / r
+    out = _block(mesh, nv, r - 1, ne)
+    o = owners.order
+    edge_range = partial(_edge_range, tri.uv, t, ctrl, owners.face[o], owners.start[o], owners.end[o], out)
+    bounds = np.searchsorted(owners.k[o], [0, 1, 2, 3])
+    jobs = []
+    for k in range(3):
+        eb = np.zeros((r - 1, 3))
+        eb[:, (k + 1) % 3] = 1.0 - t
+        eb[:, (k + 2) % 3] = t
+        count = int(bounds[k + 1] - bounds[k])
+        jobs += work.start(partial(edge_range, _basis_rows(eb, ctrl.shape[2])), count,
+                           work.chunk(count, TASK_PATCHES), offset=int(bounds[k]))
+    return jobs
 
-            def edge_chunk(rows: np.ndarray, lo: int, hi: int) -> None:
-                _write_samples(vb[:, lo:hi], nb[:, lo:hi], rows, _gather.rows(ctrl, f_sorted[lo:hi]))
-                a, b = _gather.rows(UV, start_sorted[lo:hi]), _gather.rows(UV, end_sorted[lo:hi])
-                ub[:, lo:hi] = (1.0 - t)[:, None, None] * a[None] + t[:, None, None] * b[None]
 
-            for k in range(3):  # three relabelled sample sets, not a per-face loop
-                eb = np.zeros((r - 1, 3))
-                eb[:, (k + 1) % 3] = 1.0 - t
-                eb[:, (k + 2) % 3] = t
-                rows_e = _basis_rows(eb, d)
-                for lo, hi in work.task_chunks(int(bounds[k + 1] - bounds[k])):
-                    work.submit(edge_chunk, rows_e, int(bounds[k]) + lo, int(bounds[k]) + hi)
+def _edge_range(UV: np.ndarray, t: np.ndarray, ctrl: np.ndarray, face: np.ndarray, start: np.ndarray,
+                end: np.ndarray, out: _Block, rows: np.ndarray, lo: int, hi: int) -> None:
+    """Samples of the edges ``lo:hi`` (in owner order) on their owner faces."""
+    _write_samples(out.values[:, lo:hi], out.normals[:, lo:hi], rows, _gather.rows(ctrl, face[lo:hi]))
+    a, b = _gather.rows(UV, start[lo:hi]), _gather.rows(UV, end[lo:hi])
+    out.uv[:, lo:hi] = (1.0 - t)[:, None, None] * a[None] + t[:, None, None] * b[None]
 
-        # --- corners (here, while the tasks run): exact corner points; normals from the star points
-        cf, ck = np.divmod(tri.vertex_corner, 3)  # each vertex's lowest corner
-        vertices[:nv] = ctrl[cf, CORNER[ck]]
-        uv_pts[:nv] = UV
-        if d == 3:
-            z = vertices[:nv].T
-            s1 = ctrl[cf, STAR[ck, (ck + 1) % 3]].T - z
-            s2 = ctrl[cf, STAR[ck, (ck + 2) % 3]].T - z
-            normals[:nv] = _cross_normalise(s1, s2).T
-    return Tessellation(vertices, triangles, normals, uv_pts)
+
+def _corners(tri: Triangulation, ctrl: np.ndarray, mesh: Tessellation) -> None:
+    """Exact corner points; normals from the star points of each vertex's lowest corner."""
+    nv = tri.n_vertices
+    cf, ck = np.divmod(tri.vertex_corner, 3)
+    mesh.vertices[:nv] = ctrl[cf, CORNER[ck]]
+    mesh.uv[:nv] = tri.uv
+    if ctrl.shape[2] == 3:
+        z = mesh.vertices[:nv].T
+        s1 = ctrl[cf, STAR[ck, (ck + 1) % 3]].T - z
+        s2 = ctrl[cf, STAR[ck, (ck + 2) % 3]].T - z
+        mesh.normals[:nv] = _cross_normalise(s1, s2).T

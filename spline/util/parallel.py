@@ -4,14 +4,17 @@ numpy releases the GIL inside its loops (arithmetic, gathers, scatters), so a
 stage written as "do this to rows ``lo:hi``" runs on every core when its ranges
 are handed to threads. That splits the arithmetic and, as much, the page faults
 of fresh memory, which on the 2-core development VM cost more than the
-arithmetic at 1M faces (see ``_memory``). Small inputs run inline: a thread pool
-costs ~0.1 ms to start.
+arithmetic at 1M faces (see ``memory``). Small inputs run inline: a thread pool
+costs ~0.1 ms to start. Work that calls BLAS from several threads at once holds
+BLAS to one thread per call meanwhile (:func:`single_threaded_blas`).
 """
 from __future__ import annotations
 
+import contextlib
 import os
+import threading
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 import numpy as np
 
@@ -42,14 +45,19 @@ class _Done:
 class Workers:
     """A thread per core (at most 8) for inputs of ``n`` items, or inline work.
 
-    Use as a context manager; ``map`` waits for its ranges, ``submit`` returns a
-    handle whose ``result()`` waits. Errors propagate to the caller.
+    Use as a context manager; ``map`` waits for its ranges, ``submit`` and ``start``
+    return handles whose ``result()`` waits (and re-raises the task's error).
+    ``parallel_min``: fewest items that get threads (default :data:`PARALLEL_MIN`);
+    ``serial_blas``: hold BLAS to one thread per call while the threads run
+    (:func:`single_threaded_blas`), for tasks that each call BLAS.
     """
 
-    def __init__(self, n: int) -> None:
+    def __init__(self, n: int, *, parallel_min: int | None = None, serial_blas: bool = False) -> None:
         cores = min(os.cpu_count() or 1, 8)
-        self.threads = cores if n >= PARALLEL_MIN and cores > 1 else 1
+        least = PARALLEL_MIN if parallel_min is None else parallel_min
+        self.threads = cores if n >= least and cores > 1 else 1
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        self._blas = single_threaded_blas() if serial_blas and self._pool is not None else contextlib.nullcontext()
 
     def map(self, fn: Callable[[int, int], Any], n: int, chunk: int | None = None) -> list[Any]:
         """``[fn(lo, hi) for lo, hi in ranges(n, chunk)]``, ranges run concurrently."""
@@ -59,18 +67,65 @@ class Workers:
         futures = [self._pool.submit(fn, lo, hi) for lo, hi in parts]
         return [f.result() for f in futures]
 
+    def start(self, fn: Callable[[int, int], Any], n: int, chunk: int | None = None,
+              offset: int = 0) -> list[Future | _Done]:
+        """Start ``fn(offset + lo, offset + hi)`` for every range of ``n`` items without waiting."""
+        return [self.submit(fn, offset + lo, offset + hi) for lo, hi in ranges(n, chunk)]
+
     def submit(self, fn: Callable[..., Any], *args: Any) -> Future | _Done:
         """Start ``fn(*args)`` in the background (inline without threads)."""
         if self._pool is None:
             return _Done(fn(*args))
         return self._pool.submit(fn, *args)
 
+    def chunk(self, n: int, most: int) -> int:
+        """A range length for ``n`` items: at most ``most``, and at least two ranges per thread."""
+        return most if self._pool is None else max(1, min(most, -(-n // (2 * self.threads))))
+
     def __enter__(self) -> "Workers":
+        self._blas.__enter__()
         return self
 
     def __exit__(self, *exc: object) -> None:
-        if self._pool is not None:
-            self._pool.shutdown(wait=True)
+        try:
+            if self._pool is not None:
+                self._pool.shutdown(wait=True)
+        finally:
+            self._blas.__exit__(None, None, None)
+
+
+_blas_lock = threading.Lock()
+_blas_state: dict = {"controller": None, "limiter": None, "users": 0}
+
+
+@contextlib.contextmanager
+def single_threaded_blas() -> Iterator[None]:
+    """Context in which BLAS runs on the calling thread only.
+
+    Tasks that call BLAS from several Python threads at once oversubscribe the cores
+    when BLAS threads each call as well (measured slower). The limit is process-wide;
+    concurrent users share it, the first one in sets it and the last one out restores
+    the original thread count.
+    """
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:  # pragma: no cover - threadpoolctl is a dependency
+        yield
+        return
+    with _blas_lock:
+        if _blas_state["users"] == 0:
+            if _blas_state["controller"] is None:
+                _blas_state["controller"] = ThreadpoolController()
+            _blas_state["limiter"] = _blas_state["controller"].limit(limits=1, user_api="blas")
+        _blas_state["users"] += 1
+    try:
+        yield
+    finally:
+        with _blas_lock:
+            _blas_state["users"] -= 1
+            if _blas_state["users"] == 0:
+                _blas_state["limiter"].restore_original_limits()
+                _blas_state["limiter"] = None
 
 
 def concat(parts: list[np.ndarray], dtype=np.int64) -> np.ndarray:

@@ -157,7 +157,7 @@ def test_threaded_tasks_equal_the_single_threaded_tessellation(monkeypatch):
     monkeypatch.setattr(tess, "TASK_PATCHES", 3000)
     threaded = tessellate(uv, faces, ctrl, 6)
     assert [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"] == blas_before
-    monkeypatch.setattr(tess, "CHUNK_FACES", 10**9)  # one worker: everything inline
+    monkeypatch.setattr(tess, "PARALLEL_FACES", 10**9)  # one worker: everything inline
     inline = tessellate(uv, faces, ctrl, 6)
     np.testing.assert_array_equal(threaded.triangles, inline.triangles)
     np.testing.assert_array_equal(threaded.uv, inline.uv)
