@@ -1,29 +1,27 @@
 """trispline.spline — C1 quintic triangular splines over planar triangulations.
 
-Pure math (numpy/scipy only): index tables, the Bernstein basis, the domain
-triangulation, the free-to-control propagation map, continuity checks,
-evaluation, point location, tessellation and the surface file format.
+Pure math (numpy/scipy only): the domain triangulation, the free-to-control
+propagation map, local editing, continuity checks, point location, tessellation
+and the surface file format. The names below are the layer's API; the building
+blocks stay importable from their modules: index tables and the sample lattice
+(:mod:`.index`), the Bernstein basis (:mod:`.bernstein`), patch evaluation
+(:mod:`.patches`), the control net layout (:mod:`.net`), test generators
+(:mod:`.testing`), named tolerances (:mod:`.tolerances`) and plumbing (:mod:`.util`).
 """
-from .index import CORNER, DEGREE, EXPONENTS, FLIP, INNER, MID, NCTRL, STAR, index_of
-from .bernstein import bary_grid, basis, basis_gradient_bary, basis_hessian_bary
-from .continuity import continuity_report, continuity_residuals
-from .errors import InputError, TriangulationError
-from .locate import Locator, OutsideDomainError, locate
-from .patches import evaluate, evaluate_derivatives, evaluate_grid, numeric_continuity
-from .polynomial import polynomial_control_net, random_polynomial
+from .continuity import continuity_report
+from .edit import EditResult, SplineEditor
+from .errors import InputError, OutsideDomainError, SurfaceFileError, TriangulationError
+from .locate import Locator
+from .polynomial import polynomial_control_net
 from .propagation import SplineSpace, build_space
-from .serialize import SurfaceFileError, read_surface, write_surface
+from .serialize import read_surface, write_surface
 from .surface import SplineSurface
 from .tessellate import Tessellation, tessellate
 from .topology import Triangulation
 
 __all__ = [
-    "CORNER", "DEGREE", "EXPONENTS", "FLIP", "INNER", "MID", "NCTRL", "STAR", "index_of",
-    "bary_grid", "basis", "basis_gradient_bary", "basis_hessian_bary",
-    "continuity_report", "continuity_residuals", "InputError", "TriangulationError",
-    "Locator", "OutsideDomainError", "locate",
-    "evaluate", "evaluate_derivatives", "evaluate_grid", "numeric_continuity",
-    "polynomial_control_net", "random_polynomial", "SplineSpace", "build_space",
-    "SurfaceFileError", "read_surface", "write_surface", "SplineSurface", "Tessellation", "tessellate",
-    "Triangulation",
+    "SplineSurface", "SplineSpace", "build_space", "Triangulation", "SplineEditor", "EditResult",
+    "tessellate", "Tessellation", "Locator", "continuity_report", "read_surface", "write_surface",
+    "polynomial_control_net",
+    "InputError", "TriangulationError", "OutsideDomainError", "SurfaceFileError",
 ]

@@ -6,15 +6,15 @@
 
 How an edit realises the paper's order
 --------------------------------------
-The propagation map is built as ``M = L3 @ L2 @ R`` (:mod:`.propagation`): ``R`` places
-the free points and expands each corner region (corner point + two frame points ->
-all star points of the vertex), ``L2`` propagates each vertex's ``i = 1`` diamonds
-(middle edge points, or inner points where the pivoting switched direction), ``L3``
-propagates the ``i = 2`` diamonds (the dependent flip point of each interior edge).
-Column ``j`` of ``M`` is therefore the image of one free point through the three
-stages, corner regions -> edges -> flips: its nonzero rows are *exactly* the control
-points that moving free point ``j`` changes, and every row of ``M`` is the fully
-propagated affine combination of free points. An edit reads the column's rows
+The propagation map ``M`` (:mod:`.propagation`) is written row by row in the paper's
+order, each row already in terms of free points: a star point's row from its vertex's
+corner point and two frame points (the corner region), a middle edge point's row (or an
+inner point's, where the pivoting switched direction at a degenerate vertex) from the
+free inner and middle points of its vertex system and the star rows it needs (the
+edges), a computed flip point's row from the other flip and the two middle rows of its
+edge (the flips). Every row of ``M`` is therefore the fully propagated affine
+combination of free points, and the nonzero rows of column ``j`` are *exactly* the
+control points that moving free point ``j`` changes. An edit reads the column's rows
 (CSC structure) and recomputes those rows from the current free vector,
 ``P[rows] = M[rows] @ free`` (raw CSR arrays, no scipy slicing). Because rows are
 recomputed from scratch, never updated by differences, any sequence of edits

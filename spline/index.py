@@ -24,7 +24,6 @@ DEGREE = 5
 NCTRL = 21
 
 
-
 @lru_cache(maxsize=32)
 def lattice(r: int) -> np.ndarray:
     """``(n, 3)`` int64 lattice points ``(i, j, k)``, ``i + j + k = r``, in storage order.
@@ -85,8 +84,6 @@ _LOOKUP = {tuple(int(x) for x in e): n for n, e in enumerate(EXPONENTS)}
 def index_of(i: int, j: int, k: int) -> int:
     """Storage index of ``b_ijk`` (``i + j + k = 5``)."""
     return _LOOKUP[(i, j, k)]
-
-
 
 
 def local_index(powers: dict[int, int]) -> int:

@@ -9,7 +9,7 @@ Two entry styles:
   :func:`evaluate_grid`, one BLAS product ``(n, 21) @ (21, F*d)`` with no per-face loop.
 
 uv-derivatives use the chain rule ``d/du = sum_k dB/dl_k * dl_k/du`` with the
-faces' barycentric gradients ``(F, 3, 2)`` (:func:`face_bary_gradients`).
+faces' barycentric gradients ``(F, 3, 2)`` (:func:`~trispline.spline.topology.face_bary_gradients`).
 
 :func:`numeric_continuity` samples values and uv-gradients from both sides of
 every interior edge: the numeric half of the continuity verification.
@@ -25,7 +25,7 @@ from .index import NCTRL
 from .bernstein import basis, basis_gradient_bary, basis_hessian_bary
 from .checks import as_array, check_ids
 from .errors import InputError
-from .topology import Triangulation, signed_areas
+from .topology import Triangulation, face_bary_gradients
 
 __all__ = [
     "PatchDerivatives",
@@ -34,23 +34,8 @@ __all__ = [
     "evaluate",
     "evaluate_derivatives",
     "evaluate_grid",
-    "face_bary_gradients",
     "numeric_continuity",
 ]
-
-
-def face_bary_gradients(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """uv-gradient of each barycentric coordinate of each face, ``(F, 3, 2)``.
-
-    Same values as :attr:`Triangulation.bary_gradients`, without building the
-    topology.
-    """
-    uv = np.asarray(uv, dtype=np.float64)
-    faces = np.asarray(faces)
-    t = _gather.rows(uv, faces)  # (F, 3, 2)
-    e = t[:, [2, 0, 1]] - t[:, [1, 2, 0]]  # edge opposite k, traversed CCW
-    twice = 2.0 * signed_areas(uv, faces)
-    return np.stack([-e[..., 1], e[..., 0]], axis=-1) / twice[:, None, None]
 
 
 def check_ctrl(faces: np.ndarray, ctrl: np.ndarray) -> np.ndarray:

@@ -45,7 +45,6 @@ VERSION = 1
 _REQUIRED = ("format", "version", "degree", "uv", "faces", "control_points")
 
 
-
 def _suffix(path: Path) -> str:
     s = path.suffix.lower()
     if s not in (".npz", ".json"):

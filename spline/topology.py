@@ -16,7 +16,7 @@ Conventions
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
@@ -37,6 +37,20 @@ def signed_areas(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return triangle_areas(*(_gather.rows(uv, faces[:, k]) for k in range(3)))
 
 
+def face_bary_gradients(uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """uv-gradient of each barycentric coordinate of each face, ``(nf, 3, 2)``.
+
+    ``grad l_k = rot90(edge opposite k, traversed counter-clockwise) / (2 area)``; needs no
+    topology (:attr:`Triangulation.bary_gradients` caches it for a triangulation).
+    """
+    uv = np.asarray(uv, dtype=np.float64)
+    faces = np.asarray(faces)
+    t = _gather.rows(uv, faces)  # (F, 3, 2)
+    e = t[:, [2, 0, 1]] - t[:, [1, 2, 0]]  # edge opposite k, traversed CCW
+    twice = 2.0 * signed_areas(uv, faces)
+    return np.stack([-e[..., 1], e[..., 0]], axis=-1) / twice[:, None, None]
+
+
 @dataclass(frozen=True, eq=False)
 class Triangulation:
     """A validated planar triangulation (immutable; derived tables are cached).
@@ -49,7 +63,6 @@ class Triangulation:
 
     uv: np.ndarray
     faces: np.ndarray
-    _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         err = TriangulationError
@@ -350,25 +363,5 @@ class Triangulation:
 
     @cached_property
     def bary_gradients(self) -> np.ndarray:
-        """(F, 3, 2): gradient in uv of each barycentric coordinate of each face."""
-        uv = self.uv[self.faces]  # (F, 3, 2)
-        e0 = uv[:, 2] - uv[:, 1]
-        e1 = uv[:, 0] - uv[:, 2]
-        e2 = uv[:, 1] - uv[:, 0]
-        rot = lambda e: np.stack([-e[:, 1], e[:, 0]], axis=1)  # noqa: E731
-        twice = (2.0 * self.areas)[:, None]
-        # grad l_k = rot90(edge opposite k, traversed CCW) / 2A
-        return np.stack([rot(e0) / twice, rot(e1) / twice, rot(e2) / twice], axis=1)
-
-    def describe(self) -> dict:
-        """Counts for reports."""
-        return dict(
-            vertices=self.n_vertices,
-            faces=self.n_faces,
-            edges=self.n_edges,
-            interior_edges=int(self.interior_edges.size),
-            boundary_edges=int(self.boundary_edges.size),
-            boundary_loops=len(self.boundary_loops),
-            holes=self.n_holes,
-            interior_vertices=int((~self.boundary_vertex_mask).sum()),
-        )
+        """(F, 3, 2): gradient in uv of each barycentric coordinate of each face (:func:`face_bary_gradients`)."""
+        return face_bary_gradients(self.uv, self.faces)

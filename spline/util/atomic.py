@@ -28,7 +28,6 @@ from trispline.spline.errors import OutputError
 __all__ = ["OutputError", "AtomicOutputs", "atomic_path", "write_bytes", "write_text"]
 
 
-
 def _temp_for(path: Path) -> Path:
     """Create (empty) and return a fresh temporary file beside ``path`` with the same suffix."""
     folder = path.parent

@@ -8,16 +8,10 @@ from hypothesis import strategies as st
 
 from trispline.spline.testing import domains
 from trispline.spline.errors import InputError
-from trispline.spline.patches import (
-    evaluate,
-    evaluate_derivatives,
-    evaluate_grid,
-    face_bary_gradients,
-    numeric_continuity,
-)
+from trispline.spline.patches import evaluate, evaluate_derivatives, evaluate_grid, numeric_continuity
 from trispline.spline.bernstein import bary_grid
 from trispline.spline.polynomial import polynomial_control_net, random_polynomial
-from trispline.spline.topology import Triangulation
+from trispline.spline.topology import Triangulation, face_bary_gradients
 from triangulations import SMALL_DOMAINS
 
 DOMAINS = SMALL_DOMAINS
