@@ -52,3 +52,33 @@ def test_indefinite_matrix_is_refused(backend):
 def test_unknown_backend_is_refused():
     with pytest.raises(ValueError, match="unknown solver backend"):
         SparseCholesky(spd(20), "magic")
+
+
+def test_factor_solvers_of_two_factors_share_one_compile():
+    """The factor travels as a traced handle: one trace serves two factors, each solving with its own."""
+    import jax
+    import jax.numpy as jnp
+    import lineax as lx
+
+    jax.config.update("jax_enable_x64", True)
+    from trispline.fit.solve import FactorSolver
+
+    f1, f2 = SparseCholesky(spd(30, seed=1)), SparseCholesky(spd(30, seed=2))
+    s1, s2 = FactorSolver(f1), FactorSolver(f2)
+    assert jax.tree_util.tree_structure(s1) == jax.tree_util.tree_structure(s2)
+    assert s1.factor is f1 and s2.factor is f2
+    traces = []
+
+    @jax.jit
+    def solve(solver, b):
+        traces.append(1)
+        op = lx.IdentityLinearOperator(jax.eval_shape(lambda: b))
+        return solver.compute(solver.init(op, {}), b, {})[0]
+
+    b = np.random.default_rng(0).normal(size=(30, 3))
+    y1, y2 = solve(s1, jnp.asarray(b)), solve(s2, jnp.asarray(b))
+    assert len(traces) == 1
+    np.testing.assert_allclose(y1, f1.solve(b), rtol=1e-12)
+    np.testing.assert_allclose(y2, f2.solve(b), rtol=1e-12)
+    with pytest.raises(ValueError, match="mode"):
+        FactorSolver(f1, mode="cg")
