@@ -48,6 +48,7 @@ from .checks import as_array, check_ids
 from .errors import DependentPointError, InputError, NotC1Error, first_few
 from .propagation import KIND_FRAME, KIND_NAMES, SplineSpace
 from .tolerances import FROM_SURFACE_RTOL
+from .util import gather as _gather
 
 __all__ = ["SplineEditor", "EditResult", "DependentPointError", "NotC1Error"]
 
@@ -76,10 +77,7 @@ def _ranges(ptr: np.ndarray, rows: np.ndarray, local: bool = False) -> tuple[np.
     """Concatenated index ranges ``ptr[r]:ptr[r+1]`` of ``rows`` (``(n,)``), and with
     ``local`` the position in ``rows`` each entry belongs to (``(n,)``)."""
     starts = ptr[rows]
-    counts = ptr[rows + 1] - starts
-    ends = np.cumsum(counts)
-    idx = np.arange(int(ends[-1]) if rows.size else 0) + np.repeat(starts - (ends - counts), counts)
-    return idx, (np.repeat(np.arange(rows.size), counts) if local else None)
+    return _gather.segments(starts, ptr[rows + 1] - starts, owner=local)
 
 
 class SplineEditor:

@@ -55,8 +55,7 @@ class Locator:
         i1 = np.clip(((hi - blo) / cell).astype(np.int64), 0, n - 1)
         span = i1 - i0 + 1  # (F, 2)
         cnt = span[:, 0] * span[:, 1]
-        fid = np.repeat(np.arange(nf), cnt)
-        off = np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+        off, fid = _gather.segments(np.zeros(nf, np.int64), cnt, owner=True)  # (face, position in its span)
         sx = span[fid, 0]
         cx = i0[fid, 0] + off % sx
         cy = i0[fid, 1] + off // sx
@@ -112,9 +111,8 @@ class Locator:
         q, start, cnt = q[has], start[has], cnt[has]
         if q.size == 0:
             return
-        pair_q = np.repeat(np.arange(q.size), cnt)
-        off = np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-        cand = self._cand[np.repeat(start, cnt) + off]
+        pairs, pair_q = _gather.segments(start, cnt, owner=True)
+        cand = self._cand[pairs]
         b = self.bary_in(cand, _gather.rows(pts, q[pair_q]))
         score = b.min(1)
         seg = np.cumsum(cnt) - cnt

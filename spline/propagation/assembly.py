@@ -176,8 +176,7 @@ def _eliminated_rows(rows: _Rows, reduced: _ReducedRows, lo: int, hi: int) -> No
     start = rows.indptr[reduced.dep[lo:hi]]
     a0, a1 = reduced.ptr[lo], reduced.ptr[hi]
     n_a = reduced.n_a[lo:hi]
-    owner = np.repeat(np.arange(hi - lo), n_a)
-    pos = start[owner] + (np.arange(a0, a1) - reduced.ptr[lo:hi][owner])
+    pos, _ = _gather.segments(start, n_a)
     rows.data[pos] = reduced.vals[a0:a1]
     rows.indices[pos] = reduced.cols[a0:a1]
     at, v = start + n_a, reduced.vertex[lo:hi]

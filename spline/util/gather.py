@@ -20,3 +20,14 @@ def rows(a: np.ndarray, idx: np.ndarray) -> np.ndarray:
 def at(a: np.ndarray, i: np.ndarray, j: np.ndarray | int) -> np.ndarray:
     """``a[i, j]`` for a 2-D ``a`` and integer ``i, j`` (broadcast together); ``j`` in ``[0, a.shape[1])``."""
     return np.take(a.reshape(-1), np.asarray(i) * a.shape[1] + j)
+
+
+def segments(starts: np.ndarray, counts: np.ndarray, owner: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+    """Flat indices of the concatenated ranges ``starts[i] : starts[i] + counts[i]``, ``(sum counts,)``.
+
+    With ``owner`` also the range ``i`` each index belongs to (``(sum counts,)``, else ``None``):
+    the gather of CSR rows ``ptr[r] : ptr[r + 1]`` for a set of rows ``r``, with no Python loop.
+    """
+    ends = np.cumsum(counts)
+    idx = np.arange(int(ends[-1]) if counts.size else 0) + np.repeat(starts - (ends - counts), counts)
+    return idx, (np.repeat(np.arange(counts.size), counts) if owner else None)
