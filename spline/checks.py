@@ -40,23 +40,22 @@ def as_array(a, name: str, shape: Sequence[Axis], *, integer: bool = False, whol
     if arr.ndim != len(shape) or any(s is not None and not isinstance(s, str) and s != n
                                        for s, n in zip(shape, arr.shape)):
         raise error(f"{name} must have shape {_shape_text(shape)}, got {arr.shape}")
-    if arr.shape[0] < min_rows:
+    if arr.ndim and arr.shape[0] < min_rows:
         rows = f"{min_rows} row" + ("s" if min_rows != 1 else "")
         raise error(f"{name} must have shape {_shape_text(shape)} with at least {rows}, got {arr.shape}")
+    kind = arr.dtype.kind  # "i", "u" integers, "f" floats (a dtype kind test: ~10x cheaper than issubdtype)
     if integer:
-        if arr.size and not np.issubdtype(arr.dtype, np.integer):
-            if (whole_floats and np.issubdtype(arr.dtype, np.floating) and np.isfinite(arr).all()
-                    and (arr == np.round(arr)).all()):
+        if arr.size and kind not in "iu":
+            if whole_floats and kind == "f" and np.isfinite(arr).all() and (arr == np.round(arr)).all():
                 return arr.astype(np.int64)
             raise error(f"{name} must hold integers, got dtype {arr.dtype}")
         return arr.astype(np.int64, copy=False)
-    if arr.size and not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+    if arr.size and kind not in "iuf":
         raise error(f"{name} must hold real numbers, got dtype {arr.dtype}")
     arr = arr.astype(np.float64, copy=False)
-    if finite:
-        bad = np.flatnonzero(~np.isfinite(arr.reshape(arr.shape[0], -1)).all(1)) if arr.ndim else []
-        if len(bad):
-            raise error(f"{name} has non-finite entries in {first_few(bad)} rows")
+    if finite and not np.isfinite(arr).all():
+        bad = np.flatnonzero(~np.isfinite(arr.reshape(arr.shape[0], -1)).all(1)) if arr.ndim else [0]
+        raise error(f"{name} has non-finite entries in {first_few(bad)} rows")
     return arr
 
 
