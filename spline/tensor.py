@@ -212,15 +212,16 @@ def _slot_ids(tri: Triangulation, ids: np.ndarray, lo: int, hi: int) -> None:
         ids[lo:hi, on] = nv + fe[:, k:k + 1] + ne * np.where(forward, pos[on] - 1, 2 * DEGREE - 1 - pos[on])
 
 
-def _edge_points(tri: Triangulation, flat: np.ndarray, out: np.ndarray) -> None:
-    """The 9 points inside every edge into ``out (9, E * d)``, from one face holding the edge."""
+def _edge_sources(tri: Triangulation) -> tuple[np.ndarray, np.ndarray]:
+    """Where every edge's 6 control points are read: ``face (E,)`` and storage indices
+    ``(E, 6)`` from ``edges[e, 0]`` to ``edges[e, 1]``, in the face ``edge_faces[e, 0]``
+    (it runs the edge ``a -> b``) or, on a boundary edge without it, ``edge_faces[e, 1]``."""
     tb = _tables()
     ef, eo = tri.edge_faces, tri.edge_opposite
-    first = ef[:, 0] >= 0  # f0 runs the edge a -> b; a boundary edge may have only f1 (b -> a)
-    src, opp = np.where(first, ef[:, 0], ef[:, 1]), np.where(first, eo[:, 0], eo[:, 1])
-    order = np.where(first[:, None], tb.edge_ctrl[opp], tb.edge_ctrl[opp][:, ::-1])  # (E, 6) from a to b
-    edge_ctrl = _gather.rows(flat, NCTRL * src[None, :] + order.T)  # (6, E, d)
-    np.dot(tb.edge_weights, edge_ctrl.reshape(DEGREE + 1, -1), out=out)
+    first = ef[:, 0] >= 0
+    opp = np.where(first, eo[:, 0], eo[:, 1])
+    order = np.where(first[:, None], tb.edge_ctrl[opp], tb.edge_ctrl[opp][:, ::-1])
+    return np.where(first, ef[:, 0], ef[:, 1]), order
 
 
 def tensor_net(uv: np.ndarray, faces: np.ndarray, ctrl: np.ndarray, *,
@@ -236,28 +237,37 @@ def tensor_net(uv: np.ndarray, faces: np.ndarray, ctrl: np.ndarray, *,
     -------
     TensorNet
         ``3 F`` patches of ``6 x 6`` control points; points shared by neighbouring quads
-        are computed once (an edge's from the face ``edge_faces[e, 0]``, else ``[e, 1]``;
-        a vertex's from its lowest corner), so shared boundary rows are bit-identical.
+        are computed once (an edge's from one face, see :func:`_edge_sources`; a vertex's
+        from its lowest corner), so shared boundary rows are bit-identical.
+
+    Faces and edges are converted in ranges, a thread per core, each range one BLAS
+    product (BLAS held to one thread per call meanwhile) into its columns of the point blocks.
     """
     tri = Triangulation(uv, faces) if triangulation is None else triangulation
     nv, ne, nf = tri.n_vertices, tri.n_edges, tri.n_faces
     ctrl = as_array(ctrl, "ctrl", (nf, NCTRL, None))
-    d = ctrl.shape[2]
-    tb = _tables()
+    d, tb = ctrl.shape[2], _tables()
     points = np.empty((nv + EDGE_POINTS * ne + FACE_POINTS * nf, d))
+    edge_block = points[nv:nv + EDGE_POINTS * ne].reshape(EDGE_POINTS, ne * d)
+    face_block = points[nv + EDGE_POINTS * ne:].reshape(FACE_POINTS, nf * d)
     ids = np.empty((nf, 3 * (DEGREE + 1) ** 2), np.int64)
-    by_index = np.empty((NCTRL, nf, d))  # the control points index-major, for one BLAS product
+    flat = ctrl.reshape(nf * NCTRL, d)
+    src, order = _edge_sources(tri)
 
     def faces_range(lo: int, hi: int) -> None:
-        by_index[:, lo:hi] = ctrl[lo:hi].transpose(1, 0, 2)
+        by_index = ctrl[lo:hi].transpose(1, 0, 2).reshape(NCTRL, -1)  # (21, n d), a copy
+        face_block[:, lo * d:hi * d] = tb.face_weights @ by_index
         _slot_ids(tri, ids, lo, hi)
 
-    with _parallel.Workers(nf) as work:  # ranges of faces, a thread per core
+    def edges_range(lo: int, hi: int) -> None:
+        edge_ctrl = _gather.rows(flat, NCTRL * src[None, lo:hi] + order[lo:hi].T)  # (6, n, d)
+        edge_block[:, lo * d:hi * d] = tb.edge_weights @ edge_ctrl.reshape(DEGREE + 1, -1)
+
+    with _parallel.Workers(nf, parallel_min=2 * FACE_CHUNK, serial_blas=True) as work:
+        pending = work.start(edges_range, ne, FACE_CHUNK)
         work.map(faces_range, nf, FACE_CHUNK)
-    flat = ctrl.reshape(nf * NCTRL, d)
+        for task in pending:
+            task.result()
     vc = tri.vertex_corner  # corner 3 f + k: the control point f(v_k^5) of face f
     points[:nv] = _gather.rows(flat, NCTRL * (vc // 3) + _CORNER_INDEX[vc % 3])
-    _edge_points(tri, flat, points[nv:nv + EDGE_POINTS * ne].reshape(EDGE_POINTS, ne * d))
-    np.dot(tb.face_weights, by_index.reshape(NCTRL, nf * d),
-           out=points[nv + EDGE_POINTS * ne:].reshape(FACE_POINTS, nf * d))
     return TensorNet(points, ids.reshape(3 * nf, DEGREE + 1, DEGREE + 1), nv, ne, nf)

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import io
 import os
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterator
@@ -146,16 +146,16 @@ def cad_layout(net: TensorNet, *, merge: bool = False) -> CadLayout:
 
 
 # ------------------------------------------------------------------ libraries
-def _require(module: str, what: str, path: str | os.PathLike) -> Any:
-    """Import ``module`` or refuse the export of ``path`` naming the extra to install."""
+def _require(module: str, what: str, refusal: str) -> None:
+    """Import ``module`` or refuse (``refusal``: "cannot write x.step") naming the extra to install."""
     import importlib
 
     try:
-        return importlib.import_module(module)
+        importlib.import_module(module)
     except ImportError:
         raise ExportFormatError(
-            f"cannot write {path}: {what} export needs the optional extra trispline[cad] "
-            f"(pip install 'trispline[cad]'), which provides {module.split('.')[0]}") from None
+            f"{refusal}: {what} needs the optional extra trispline[cad] (pip install 'trispline[cad]'), "
+            f"which provides {module.split('.')[0]}") from None
 
 
 @contextmanager
@@ -339,15 +339,17 @@ def _write_3dm(net: TensorNet, lay: CadLayout, tmp: Path, name: str) -> bool:
     for kind in lay.kinds:
         nu, spans = kind.poles.shape[1], kind.spans
         uknots = [float(i) for i in range(spans + 1) for _ in range(DEGREE)]  # openNURBS: no end knot repeats
+        vknots = [float(i >= DEGREE) for i in range(2 * DEGREE)]
         for poles in kind.poles.tolist():
             surface = rhino3dm.NurbsSurface.Create(3, False, _N, _N, nu, _N)
+            ku, kv, cv = surface.KnotsU, surface.KnotsV, surface.Points  # each access makes a new view
             for i, u in enumerate(uknots):
-                surface.KnotsU[i] = u
-            for i in range(2 * DEGREE):
-                surface.KnotsV[i] = float(i >= DEGREE)
+                ku[i] = u
+            for i, v in enumerate(vknots):
+                kv[i] = v
             for i, row in enumerate(poles):
                 for j, p in enumerate(row):
-                    surface.Points[i, j] = rhino3dm.Point4d(*points[p], 1.0)
+                    cv[i, j] = rhino3dm.Point4d(*points[p], 1.0)
             model.Objects.AddSurface(surface, attributes)
     return bool(model.Write(str(tmp), _3DM_VERSION))
 
@@ -385,7 +387,7 @@ def export_cad(surface: "SplineSurface", path: str | os.PathLike, *, merge: bool
     """
     suffix = check_export_path(path, CAD_FORMATS)
     module, what = _WRITERS[suffix]
-    _require(module, what, path)
+    _require(module, what, f"cannot write {path}")
     if not (np.isfinite(tolerance) and tolerance > 0):
         raise InputError(f"cannot write {path}: tolerance must be a positive number, got {tolerance}")
     net = tensor_net(surface.uv, surface.faces, surface.ctrl, triangulation=surface.triangulation)
@@ -400,20 +402,21 @@ def export_cad(surface: "SplineSurface", path: str | os.PathLike, *, merge: bool
         if not ok:
             raise CommandFailed(f"cannot write {path}: the {what} writer ({module.split('.')[0]}) failed")
 
-    if outputs is not None:
-        write(outputs.path(path))
-    else:
-        with AtomicOutputs() as out:
-            write(out.path(path))
+    with AtomicOutputs() if outputs is None else nullcontext(outputs) as out:  # a group commits on its own
+        write(out.path(path))
     return Path(path)
 
 
 # ------------------------------------------------------------------ reading back
 def read_cad(path: str | os.PathLike) -> Any:
     """Read a STEP or IGES file with Open CASCADE: its one ``TopoDS_Shape`` (checks, pictures)."""
-    suffix = check_export_path(path, CAD_FORMATS[:4])
+    suffix = Path(path).suffix.lower()
+    if suffix not in _WRITERS or suffix == ".3dm":
+        raise InputError(f"cannot read {path}: read_cad reads {', '.join(CAD_FORMATS[:4])}")
+    if not Path(path).is_file():
+        raise InputError(f"cannot read {path}: no such file")
     module, what = _WRITERS[suffix]
-    _require(module, what, path)
+    _require(module, what, f"cannot read {path}")
     from OCP.IFSelect import IFSelect_RetDone
     from OCP.IGESControl import IGESControl_Reader
     from OCP.STEPControl import STEPControl_Reader

@@ -146,8 +146,8 @@ def _check_shell(shape, surface, n_faces, diagonal):
                 ns.append(n / np.linalg.norm(n) * (1 if face.Orientation() == TopAbs_FORWARD else -1))
             normals.append(np.array(ns))
         if len(owners) == 2:
-            cos = np.clip(np.sum(normals[0] * normals[1], axis=1), -1, 1)
-            angle = max(angle, float(np.arccos(cos).max()))
+            sin = np.linalg.norm(np.cross(normals[0], normals[1]), axis=1)  # arccos loses ~1e-8 near 0
+            angle = max(angle, float(np.arctan2(sin, np.sum(normals[0] * normals[1], axis=1)).max()))
     assert gap < 1e-9 * diagonal
     assert angle < 1e-7
     assert n_free == 2 * tri.boundary_edges.size  # each boundary edge in two halves
@@ -252,6 +252,16 @@ def test_missing_extra_names_it(tmp_path, surface, monkeypatch, suffix, module):
         cad.export_cad(surface, tmp_path / f"s{suffix}")
     assert isinstance(err.value, InputError)  # the CLI's exit 2
     assert list(tmp_path.iterdir()) == []
+
+
+def test_read_cad_refusals(tmp_path, surface):
+    with pytest.raises(InputError, match="read_cad reads .step"):
+        cad.read_cad(tmp_path / "s.3dm")
+    with pytest.raises(InputError, match="no such file"):
+        cad.read_cad(tmp_path / "s.step")
+    (tmp_path / "bad.step").write_text("not a STEP file")
+    with pytest.raises(CommandFailed, match="cannot read"):
+        cad.read_cad(tmp_path / "bad.step")
 
 
 def test_failed_writer_leaves_nothing(tmp_path, surface, monkeypatch):

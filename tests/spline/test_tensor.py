@@ -135,6 +135,17 @@ def test_tensor_patches_reproduce_the_triangle_patches(name, seed):
     np.testing.assert_allclose(tensor_eval(P, st_), ref, rtol=0, atol=1e-13 * scale)
 
 
+def test_threaded_ranges():
+    """A mesh big enough for the threaded ranges (faces and edges) converts like a small one."""
+    uv, faces = domains.grid(91, 91)  # 16,562 faces: three ranges of faces, five of edges
+    ctrl = polynomial_control_net(uv, faces, random_polynomial(5, 3, seed=3))
+    P = tensor_net(uv, faces, ctrl).patch_points()
+    st_ = np.random.default_rng(4).random((P.shape[0], 2))
+    n = np.arange(P.shape[0])
+    ref = evaluate(uv, faces, ctrl, n // 3, quad_bary(st_)[n % 3, n])
+    np.testing.assert_allclose(tensor_eval(P, st_), ref, rtol=0, atol=1e-13 * np.abs(ctrl).max())
+
+
 def test_polynomial_converts_to_its_tensor_representation():
     """Oracle: collocation of ``p(Q_k(s, t))`` on a 6 x 6 grid, solved with the 1D Bernstein matrix."""
     uv, faces = domains.random_delaunay(30, holes=1, seed=2)
