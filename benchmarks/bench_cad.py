@@ -8,11 +8,14 @@ timed alone, best of ``--repeat``), then written by :func:`trispline.fit.io.cad.
 (conversion, B-rep tables, the Open CASCADE shell and the writer: the whole call) and read
 back (Open CASCADE's STEP/IGES readers, transfer included; rhino3dm for 3dm). The peer,
 measured in the same run, is the tessellated export of the same surface to OBJ
-(``export_surface(..., resolution=8)``); ``x OBJ`` is the CAD write time over it.
+(``export_surface(..., resolution=8)``); ``x OBJ`` is the CAD write time over it. ``cpu s``
+is the write's CPU time (all threads): on a loaded machine it shows the share it got.
 """
 from __future__ import annotations
 
 import argparse
+import os
+import resource
 import tempfile
 import time
 from pathlib import Path
@@ -41,6 +44,13 @@ def timed(fn) -> tuple[float, object]:
     t = time.perf_counter()
     out = fn()
     return time.perf_counter() - t, out
+
+
+def cpu_timed(fn) -> tuple[float, float]:
+    """Wall and CPU seconds (all threads) of ``fn()``: CPU time shows a loaded machine's share."""
+    t, c = time.perf_counter(), time.process_time()
+    fn()
+    return time.perf_counter() - t, time.process_time() - c
 
 
 def read_back(path: Path) -> int:
@@ -76,11 +86,13 @@ def main() -> None:
     ap.add_argument("--merge", action="store_true", help="also write with merge=True")
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()
-    head = (f"{'patches':>8} {'faces':>8} {'convert s':>9} {'patches/s':>10} {'shell s':>8} {'format':>10} "
-            f"{'write s':>8} {'MB':>8} {'read s':>8} {'OBJ s':>6} {'x OBJ':>6}")
+    head = (f"{'patches':>8} {'faces':>8} {'convert s':>9} {'patches/s':>10} {'shell s':>8} {'format':>12} "
+            f"{'write s':>8} {'cpu s':>7} {'MB':>7} {'read s':>8} {'OBJ s':>6} {'x OBJ':>6}")
     print(head)
     print("-" * len(head))
     with tempfile.TemporaryDirectory() as folder:
+        for suffix in args.formats:  # load Open CASCADE / rhino3dm (seconds) outside the timings
+            read_back(export_cad(grid_surface(2), Path(folder) / f"warm{suffix}"))
         for target in args.faces:
             surface = grid_surface(target)
             conv = conversion_row(surface, args.repeat)
@@ -88,14 +100,17 @@ def main() -> None:
             for suffix in args.formats:
                 for merge in ([False, True] if args.merge else [False]):
                     path = Path(folder) / f"s{suffix}"
-                    t_write, _ = timed(lambda: export_cad(surface, path, merge=merge))
+                    t_write, c_write = cpu_timed(lambda: export_cad(surface, path, merge=merge))
                     t_read, n = timed(lambda: read_back(path))
                     assert n == (2 if merge else 3) * surface.n_faces, n
                     name = suffix + (" merged" if merge else "")
                     print(f"{surface.n_faces:>8} {n:>8} {conv['convert']:>9.3f} {conv['rate']:>10.3g} "
-                          f"{conv['shell']:>8.2f} {name:>10} {t_write:>8.2f} {path.stat().st_size / 1e6:>8.1f} "
+                          f"{conv['shell']:>8.2f} {name:>12} {t_write:>8.2f} {c_write:>7.2f} "
+                          f"{path.stat().st_size / 1e6:>7.1f} "
                           f"{t_read:>8.2f} {t_obj:>6.2f} {t_write / t_obj:>6.1f}", flush=True)
                     path.unlink()
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+    print(f"peak memory {peak:.1f} GB; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
 
 
 if __name__ == "__main__":

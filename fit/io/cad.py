@@ -24,7 +24,6 @@ millimetres). Open CASCADE and rhino3dm come with the optional extra ``trispline
 """
 from __future__ import annotations
 
-import io
 import os
 from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass
@@ -246,8 +245,8 @@ def _occ_pcurves(kind: FaceKind) -> list[dict[bool, Any]]:
 
     out = []
     for a, b in kind.uv.tolist():
-        out.append({fwd: Geom2d_Line(gp_Pnt2d(*(a if fwd else b)), gp_Dir2d(*(np.subtract(b, a) * (1 if fwd else -1))))
-                    for fwd in (True, False)})
+        d = np.subtract(b, a)
+        out.append({True: Geom2d_Line(gp_Pnt2d(*a), gp_Dir2d(*d)), False: Geom2d_Line(gp_Pnt2d(*b), gp_Dir2d(*-d))})
     return out
 
 
@@ -276,7 +275,8 @@ def occ_shell(net: TensorNet, lay: CadLayout, tolerance: float = CAD_TOLERANCE) 
                 for j, p in enumerate(row):
                     grid.SetValue(i + 1, j + 1, gp_Pnt(*points[p]))
             face, wire = TopoDS_Face(), TopoDS_Wire()
-            build.MakeFace(face, Geom_BSplineSurface(grid, uknots, vknots, umults, vmults, DEGREE, DEGREE), tolerance)
+            surface = Geom_BSplineSurface(grid, uknots, vknots, umults, vmults, DEGREE, DEGREE)
+            build.MakeFace(face, surface, tolerance)
             build.MakeWire(wire)
             for line, e, fwd in zip(lines, segs, fwds):
                 build.UpdateEdge(edges[e], line[fwd], face, tolerance)
@@ -317,11 +317,8 @@ def _write_iges(shell: Any, tmp: Path, name: str) -> bool:
         out.FloatWriter().SetFormat(_IGES_REAL)
         out.FloatWriter().SetZeroSuppress(True)
         out.SendModel(IGESSelect_WorkLibrary.DefineProtocol_s())
-        buffer = io.BytesIO()
-        if not out.Print(buffer):
-            return False
-    tmp.write_bytes(buffer.getvalue())
-    return True
+        with open(tmp, "wb") as stream:
+            return bool(out.Print(stream))
 
 
 # ------------------------------------------------------------------ rhino3dm

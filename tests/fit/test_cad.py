@@ -27,11 +27,13 @@ pytest.importorskip("rhino3dm")
 from OCP.BRep import BRep_Tool  # noqa: E402
 from OCP.BRepAdaptor import BRepAdaptor_Curve, BRepAdaptor_Curve2d, BRepAdaptor_Surface  # noqa: E402
 from OCP.BRepCheck import BRepCheck_Analyzer  # noqa: E402
-from OCP.collections import IndexedDataMap_TopoDS_Shape_List_TopoDS_Shape_TopTools_ShapeMapHasher as EdgeFaces  # noqa: E402
+from OCP.collections import (  # noqa: E402
+    IndexedDataMap_TopoDS_Shape_List_TopoDS_Shape_TopTools_ShapeMapHasher as EdgeFaces)
 from OCP.GCPnts import GCPnts_AbscissaPoint  # noqa: E402
 from OCP.gp import gp_Pnt, gp_Vec  # noqa: E402
 from OCP.ShapeAnalysis import ShapeAnalysis_FreeBounds  # noqa: E402
-from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD, TopAbs_SHELL, TopAbs_VERTEX, TopAbs_WIRE  # noqa: E402
+from OCP.TopAbs import (  # noqa: E402
+    TopAbs_EDGE, TopAbs_FACE, TopAbs_FORWARD, TopAbs_SHELL, TopAbs_VERTEX, TopAbs_WIRE)
 from OCP.TopExp import TopExp, TopExp_Explorer  # noqa: E402
 from OCP.TopoDS import TopoDS  # noqa: E402
 
