@@ -150,7 +150,7 @@ class _System(NamedTuple):
 
 
 @dataclass(frozen=True)
-class Systems:
+class _Systems:
     """The flagged vertices' ``i = 1`` systems, read off the vertex fans, eliminated in batches.
 
     The system of vertex ``s`` has one unknown inner point per corner of its fan (in
@@ -263,8 +263,8 @@ def vertex_systems(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, 
     verts = verts[order]
     _, g_first, g_count = np.unique(shape_key[order], return_index=True, return_counts=True)
     ie_pos = np.cumsum(~tri.boundary_edge_mask, dtype=_memory.index_dtype(tri.interior_edges.size)) - 1
-    systems = Systems(tri=tri, lay=lay, c2=c2, ie_pos=ie_pos, frame_scale=frame_scale, verts=verts, n_c=n_c,
-                      n_e=n_e, singular_tol=singular_tol, inner_weight=inner_weight)
+    systems = _Systems(tri=tri, lay=lay, c2=c2, ie_pos=ie_pos, frame_scale=frame_scale, verts=verts, n_c=n_c,
+                       n_e=n_e, singular_tol=singular_tol, inner_weight=inner_weight)
     futures = [work.submit(systems.batch, int(g0 + lo), int(g0 + hi))
                for g0, gn in zip(g_first, g_count) for lo, hi in _parallel.ranges(int(gn), SYSTEM_BATCH)]
     for fut in futures:  # in group and position order: the output does not depend on the batching
