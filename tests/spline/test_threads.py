@@ -29,6 +29,41 @@ def test_workers_map_returns_in_order_and_raises(monkeypatch):
             work.map(boom, 10, chunk=2)
 
 
+@pytest.mark.parametrize("threaded", [False, True])
+def test_workers_start_offsets_chunks_and_thresholds(threaded):
+    """``start`` queues every range (shifted by ``offset``) and re-raises through ``result``;
+    ``chunk`` gives at least two ranges per thread; ``parallel_min`` decides threading."""
+    def boom(lo: int, hi: int) -> int:
+        if lo == 2:
+            raise RuntimeError(f"range {lo}")
+        return lo
+
+    with _parallel.Workers(10, parallel_min=1 if threaded else 11) as work:
+        if not threaded:
+            assert work.threads == 1
+        jobs = work.start(lambda lo, hi: (lo, hi), 7, chunk=3, offset=100)
+        assert [j.result() for j in jobs] == [(100, 103), (103, 106), (106, 107)]
+        step = work.chunk(1000, 300)
+        assert step <= 300 and len(_parallel.ranges(1000, step)) >= 2 * work.threads
+        with pytest.raises(RuntimeError, match="range 2"):  # inline at the start, threaded at its result
+            for job in work.start(boom, 4, chunk=2):
+                job.result()
+
+
+def test_serial_blas_holds_blas_to_one_thread_and_restores_it():
+    from threadpoolctl import threadpool_info
+
+    def blas_threads():
+        return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+    before = blas_threads()
+    with _parallel.Workers(10, parallel_min=1, serial_blas=True) as work:
+        inside = blas_threads()
+        if work.threads > 1:
+            assert all(n == 1 for n in inside)
+    assert blas_threads() == before
+
+
 @pytest.mark.parametrize("value, dtype", [(0, np.float64), (-1, np.int32), (True, bool), (2.5, np.float32)])
 def test_full_fills_large_and_small_arrays(monkeypatch, value, dtype):
     monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1)
