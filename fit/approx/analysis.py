@@ -1,0 +1,300 @@
+"""What the dense scan looks like locally: robust quadric fits over a uv cell grid.
+
+    a = analyse_scan(V, F, uv)          # ScanAnalysis
+    a.residual                          # (n,) distance of each vertex from its cell's robust quadric
+    a.noise                             # robust noise estimate (model units)
+    a.curvature, a.scale                # (ny, nx) per cell: RMS principal curvature, 3D length per uv length
+    a.lookup(a.curvature, points)       # the cell values at uv points (k, 2)
+
+The uv bounding box is cut into square cells of about :data:`POINTS_PER_CELL`
+vertices. In each cell the three coordinates are fitted by quadratics in the
+cell's local uv, ``x(u, v) = sum c_k m_k(u, v)``, ``m = (1, u, v, u^2, uv, v^2)``,
+from the weighted normal equations (sums over cells as one sparse product, so
+linear in the scan and no per-cell Python loop), then refitted with Cauchy
+weights scaled by the cell's median residual, so that outliers do not pull the
+fit. A vertex's residual is its leave-one-out distance from the fit along the
+fit's normal (``r / (1 - h)``, ``h`` its leverage: a vertex in a cell's corner
+that the fit bends to is not hidden); its roughness, that residual over the
+cell's level: noise and spikes stand out, smooth data does not. The curvature
+``sqrt(k1^2 + k2^2)`` is that of the quadrics of a second, coarser grid
+(``curvature_points`` vertices a cell, the robust weights of the first) at the
+cell centres, less the noise's share: the fit averages the noise out over the
+cell. The vertices of a cell with too few join the nearest cell with enough.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy import ndimage
+
+from trispline.param.validate import face_areas_3d
+from trispline.spline.checks import as_array
+from trispline.spline.topology import signed_areas
+
+__all__ = ["ScanAnalysis", "analyse_scan", "POINTS_PER_CELL", "CURVATURE_POINTS", "SPIKE_LEVELS"]
+
+#: Vertices per cell aimed at (6 unknowns per coordinate: the fit averages over about 7x more points).
+POINTS_PER_CELL = 40
+#: Vertices per cell of the curvature grid (default; the coarse domain asks for its own scale).
+CURVATURE_POINTS = 200
+#: The curvature grid's cells grow until the noise's share of ``kappa`` is about this over the diagonal.
+CURVATURE_RESOLUTION = 0.5
+#: A cell with fewer vertices than this gets its values from the nearest valid cell.
+MIN_CELL_POINTS = 12
+#: Smallest variance of a valid cell's local vertex coordinates in any direction (a full cell: 1/12).
+MIN_CELL_SPREAD = 0.02
+#: Cauchy weight scale, in noise units (95% efficiency under Gaussian noise).
+CAUCHY_SCALE = 2.385
+#: Robust refits after the plain least-squares fit.
+REFITS = 2
+#: Normal-equation regularisation, relative to the matrix's trace (the monomials are O(1)).
+RIDGE = 1e-10
+#: A vertex whose residual exceeds this many local levels is a spike (see ``ScanAnalysis.roughness``).
+SPIKE_LEVELS = 5.0
+#: Smallest ``1 - leverage`` divided by (a vertex the fit interpolates gets a large, finite residual).
+LEVERAGE_FLOOR = 1e-3
+#: Smallest local residual level, relative to the diagonal (exact data: the level of rounding).
+LEVEL_FLOOR = 1e-12
+#: Median absolute deviation to the standard deviation of a Gaussian.
+MAD_TO_SIGMA = 1.4826
+
+
+@dataclass(frozen=True, eq=False)
+class ScanAnalysis:
+    """Per-vertex and per-cell results of :func:`analyse_scan`.
+
+    residual : (n,) leave-one-out distance of each vertex from its cell's robust quadric, along its
+        normal: ``|r| / (1 - h)`` with ``h`` the vertex's leverage in the fit
+    noise : robust noise estimate ``1.4826 median(|r| / sqrt(1 - h))`` (model units)
+    roughness : (n,) ``residual`` over the local level, ``1.4826`` times the cell's median (studentized)
+        residual: the noise where there is noise, the quadric's model error where the data is exact,
+        so each vertex is judged against its neighbours; above :data:`SPIKE_LEVELS`: a spike
+    smooth : (n, 3) each vertex moved onto its cell's robust quadric (along the quadric's normal)
+    cell : (n,) flat index (``iy * nx + ix``) of each vertex's cell of the curvature grid
+    origin : (2,) uv of that grid's corner; step : its cell size in uv; shape : ``(ny, nx)``
+    curvature : (ny, nx) RMS principal curvature ``sqrt(k1^2 + k2^2)`` (1 / model units)
+    scale : (ny, nx) 3D length per uv length (square root of the area ratio)
+    scan_spacing : (ny, nx) the scan's own vertex spacing in uv (square root of uv area per vertex)
+    area : (ny, nx) 3D area of the scan's faces whose centroid is in the cell
+    diagonal : the scan's bounding-box diagonal
+    """
+
+    residual: np.ndarray
+    noise: float
+    roughness: np.ndarray
+    smooth: np.ndarray
+    cell: np.ndarray
+    origin: np.ndarray
+    step: float
+    shape: tuple[int, int]
+    curvature: np.ndarray
+    scale: np.ndarray
+    scan_spacing: np.ndarray
+    area: np.ndarray
+    diagonal: float
+
+    @property
+    def spike(self) -> np.ndarray:
+        """(n,) bool: vertices far off their local fit (outliers, scanner spikes)."""
+        return self.roughness > SPIKE_LEVELS
+
+    def cell_of(self, points: np.ndarray) -> np.ndarray:
+        """Flat cell index ``(k,)`` of uv ``points (k, 2)`` (clamped to the grid)."""
+        return _cell_index(points, self.origin, self.step, self.shape)
+
+    def lookup(self, field: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """The values ``(k,)`` of a per-cell ``field (ny, nx)`` at uv ``points (k, 2)``, bilinear between
+        the cell centres (so a sizing field made of it has no steps)."""
+        ij = (np.asarray(points, np.float64) - self.origin) / self.step - 0.5  # in cell-centre units
+        return ndimage.map_coordinates(field, [ij[:, 1], ij[:, 0]], order=1, mode="nearest")
+
+
+def _cell_index(points: np.ndarray, origin: np.ndarray, step: float, shape: tuple[int, int]) -> np.ndarray:
+    """Flat index ``(k,)`` of the grid cell of each uv point ``(k, 2)``, clamped to the grid."""
+    ny, nx = shape
+    ij = np.floor((np.asarray(points, np.float64) - origin) / step).astype(np.int64)
+    return np.clip(ij[:, 1], 0, ny - 1) * nx + np.clip(ij[:, 0], 0, nx - 1)
+
+
+#: Exponents ``(p, q)`` of the quadric's monomials ``u^p v^q`` and of their pairwise products (degree <= 4).
+_EXP2 = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)]
+_EXP4 = [(p, d - p) for d in range(5) for p in range(d, -1, -1)]
+#: Which degree-4 moment each entry of the 6x6 normal matrix is.
+_AIDX = np.array([[_EXP4.index((a[0] + b[0], a[1] + b[1])) for b in _EXP2] for a in _EXP2])
+
+
+def _monomials(q: np.ndarray, exps: list[tuple[int, int]] = _EXP2) -> np.ndarray:
+    """``(n, k)``: the monomials ``u^p v^q`` of local coordinates ``q (n, 2)`` (default ``1, u, v, u^2, uv, v^2``)."""
+    deg = max(a + b for a, b in exps)
+    pu, pv = [np.ones(q.shape[0])], [np.ones(q.shape[0])]
+    for _ in range(deg):
+        pu.append(pu[-1] * q[:, 0])
+        pv.append(pv[-1] * q[:, 1])
+    out = np.empty((q.shape[0], len(exps)))
+    for k, (a, b) in enumerate(exps):
+        np.multiply(pu[a], pv[b], out=out[:, k])
+    return out
+
+
+def _residuals(m: np.ndarray, X: np.ndarray, C: np.ndarray, Ainv: np.ndarray, cell: np.ndarray, w: np.ndarray,
+               chunk: int = 1 << 17) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Signed distance ``(n,)`` of ``X (n, 3)`` from its cell's quadric (``C (ncell, 6, 3)``) along the
+    quadric's unit normal ``(n, 3)``, and the vertex's leverage ``w m^T A^-1 m`` ``(n,)`` in that fit."""
+    r, nrm, lev = np.empty(X.shape[0]), np.empty_like(X), np.empty(X.shape[0])
+    for lo in range(0, X.shape[0], chunk):
+        s = slice(lo, lo + chunk)
+        c, q = C[cell[s]], m[s]
+        val = np.einsum("nk,nkd->nd", q, c)
+        du = c[:, 1] + 2 * c[:, 3] * q[:, 1:2] + c[:, 4] * q[:, 2:3]
+        dv = c[:, 2] + c[:, 4] * q[:, 1:2] + 2 * c[:, 5] * q[:, 2:3]
+        n = np.cross(du, dv)
+        nrm[s] = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+        r[s] = np.einsum("nd,nd->n", X[s] - val, nrm[s])
+        lev[s] = w[s] * np.einsum("nk,nkl,nl->n", q, Ainv[cell[s]], q)
+    return r, nrm, lev
+
+
+def _cell_median(x: np.ndarray, cell: np.ndarray, ncell: int) -> np.ndarray:
+    """``(ncell,)`` median (the lower one) of ``x (n,)`` over each cell's vertices; 0 for an empty cell."""
+    order = np.lexsort((x, cell))
+    c = cell[order]
+    start = np.searchsorted(c, np.arange(ncell))
+    count = np.bincount(cell, minlength=ncell)
+    out = np.zeros(ncell)
+    has = count > 0
+    out[has] = x[order[start[has] + (count[has] - 1) // 2]]
+    return out
+
+
+def _fill(field: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """``field (ny, nx)`` with every invalid cell set to its nearest valid cell's value."""
+    if valid.all() or not valid.any():
+        return field
+    _, (iy, ix) = ndimage.distance_transform_edt(~valid, return_indices=True)
+    return field[iy, ix]
+
+
+class _Grid:
+    """A square cell grid over the uv bounding box. The vertices of a cell with fewer than
+    :data:`MIN_CELL_POINTS`, or spread too thin to fix a quadric (a sliver of the cell along the
+    outline: the variance of their local coordinates across it below :data:`MIN_CELL_SPREAD`),
+    join the nearest valid cell (in that cell's local coordinates)."""
+
+    def __init__(self, uv: np.ndarray, step: float) -> None:
+        self.origin, self.step = uv.min(0), step
+        nx, ny = np.maximum(np.ceil((uv.max(0) - self.origin) / step), 1).astype(int)
+        self.shape = (int(ny), int(nx))
+        self.n = int(nx * ny)
+        cell = _cell_index(uv, self.origin, step, self.shape)
+        q = (uv - self.origin) / step - np.column_stack([cell % nx, cell // nx]) - 0.5
+        cnt = np.maximum(np.bincount(cell, minlength=self.n), 1)
+        mean = [np.bincount(cell, q[:, k], minlength=self.n) / cnt for k in range(2)]
+        cov = [np.bincount(cell, q[:, a] * q[:, b], minlength=self.n) / cnt - mean[a] * mean[b]
+               for a, b in ((0, 0), (0, 1), (1, 1))]
+        tr, det = cov[0] + cov[2], cov[0] * cov[2] - cov[1] ** 2
+        spread = 0.5 * tr - np.sqrt(np.maximum(0.25 * tr * tr - det, 0.0))  # smaller eigenvalue
+        valid = ((np.bincount(cell, minlength=self.n) >= MIN_CELL_POINTS) & (spread >= MIN_CELL_SPREAD)
+                 ).reshape(self.shape)
+        self.valid = valid if valid.any() else np.ones(self.shape, bool)
+        self.cell = _fill(np.arange(self.n).reshape(self.shape), self.valid).reshape(-1)[cell]
+        ij = np.column_stack([self.cell % nx, self.cell // nx])
+        m4 = _monomials((uv - self.origin) / step - ij - 0.5, _EXP4)
+        self.m, self.m4 = m4[:, [_EXP4.index(e) for e in _EXP2]], m4
+        self.count = np.bincount(self.cell, minlength=self.n)
+        # cell-membership matrix: sums over cells are one sparse product (faster than a bincount per column)
+        self.S = sp.csr_matrix((np.ones(uv.shape[0]), (self.cell, np.arange(uv.shape[0]))), shape=(self.n, uv.shape[0]))
+
+    def fit(self, V: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Weighted least-squares quadrics of ``V (n, 3)`` per cell, weights ``w (n,)``.
+
+        Returns the coefficients ``(ncell, 6, 3)`` of ``V - ref``, the inverse normal
+        matrices ``(ncell, 6, 6)`` (for the leverages) and ``ref (ncell, 3)``: the cell means.
+        """
+        n = V.shape[0]
+        tot = np.maximum(self.S @ w, 1e-300)[:, None]
+        ref = (self.S @ (w[:, None] * V)) / tot
+        X = V - ref[self.cell]
+        A = (self.S @ (w[:, None] * self.m4))[:, _AIDX]  # (ncell, 6, 6)
+        P = np.empty((n, 6, 3))  # C order: the broadcast product would come out in another and copy on reshape
+        np.multiply((w[:, None] * self.m)[:, :, None], X[:, None, :], out=P)
+        B = (self.S @ P.reshape(n, 18)).reshape(-1, 6, 3)
+        tr = np.trace(A, axis1=1, axis2=2)
+        A += (RIDGE * np.maximum(tr, 1e-300))[:, None, None] * np.eye(6)
+        Ainv = np.linalg.inv(A)
+        return Ainv @ B, Ainv, ref
+
+    def curvature(self, C: np.ndarray, Ainv: np.ndarray, noise: float) -> tuple[np.ndarray, float]:
+        """``(ny, nx)`` RMS principal curvature of each cell's quadric at its centre, less the noise's share,
+        and the median of that share (``kappa^2`` units).
+
+        ``k1^2 + k2^2 = 4 H^2 - 2 K`` is biased up by the noise in the second-order
+        coefficients: about ``noise^2 (4 a_33 + 2 a_44 + 4 a_55) / (E G - F^2)`` (``a`` the
+        inverse normal matrix, ``E, F, G`` the first fundamental form), which is taken
+        off. Invalid cells are filled from the nearest valid one; then a 3x3 median filter.
+        """
+        from trispline.fit.render.geometry import curvatures
+
+        du, dv = C[:, 1], C[:, 2]
+        H, K = curvatures(du, dv, 2 * C[:, 3], C[:, 4], 2 * C[:, 5])
+        det = np.einsum("nd,nd->n", du, du) * np.einsum("nd,nd->n", dv, dv) - np.einsum("nd,nd->n", du, dv) ** 2
+        bias = noise**2 * (4 * Ainv[:, 3, 3] + 2 * Ainv[:, 4, 4] + 4 * Ainv[:, 5, 5]) / np.maximum(det, 1e-300)
+        kappa = np.sqrt(np.maximum(4 * H * H - 2 * K - bias, 0.0)).reshape(self.shape)
+        valid = self.valid & np.isfinite(kappa)
+        smooth = ndimage.median_filter(_fill(np.where(valid, kappa, 0.0), valid), size=3, mode="nearest")
+        return smooth, float(np.median(bias[valid.reshape(-1)])) if valid.any() else 0.0
+
+
+def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_points: int = CURVATURE_POINTS
+                 ) -> ScanAnalysis:
+    """Robust local quadric fits of the scan ``V (n, 3)``, ``F (m, 3)`` over its uv map ``uv (n, 2)``.
+
+    Residuals and the noise come from cells of :data:`POINTS_PER_CELL` vertices; the
+    curvature from cells of ``curvature_points`` vertices, fitted with the robust weights
+    of the fine cells, or larger cells where the noise's share of the curvature would
+    exceed :data:`CURVATURE_RESOLUTION` over the diagonal (a quadric's curvature over a
+    cell of width ``L`` carries noise of about ``sigma / L^2``; at most ``n / 16`` a cell).
+    """
+    V = as_array(V, "V", (None, 3), finite=True, min_rows=3)
+    uv = as_array(uv, "uv", (V.shape[0], 2), finite=True)
+    F = as_array(F, "F", (None, 3), integer=True, min_rows=1)
+    n = V.shape[0]
+    auv = np.abs(signed_areas(uv, F))
+    unit = float(np.sqrt(max(float(auv.sum()), 1e-300) / n))  # uv spacing of the scan
+    fine = _Grid(uv, unit * np.sqrt(POINTS_PER_CELL))
+    w = np.ones(n)
+    diagonal = float(np.linalg.norm(V.max(0) - V.min(0)))
+    for _ in range(REFITS + 1):
+        C, Ainv, ref = fine.fit(V, w)
+        r, nrm, lev = _residuals(fine.m, V - ref[fine.cell], C, Ainv, fine.cell, w)
+        # leave-one-out residuals r / (1 - h): a vertex the fit bends to (high leverage) is not hidden
+        loo = r / np.maximum(1.0 - lev, LEVERAGE_FLOOR)
+        stud = np.abs(r) / np.sqrt(np.maximum(1.0 - lev, LEVERAGE_FLOOR))
+        noise = MAD_TO_SIGMA * float(np.median(stud))
+        # the local level: noise where there is noise, the quadric's model error where the data is exact
+        level = np.maximum(MAD_TO_SIGMA * _cell_median(stud, fine.cell, fine.n)[fine.cell], LEVEL_FLOOR * diagonal)
+        w = 1.0 / (1.0 + (loo / (CAUCHY_SCALE * level)) ** 2)
+    points = max(int(curvature_points), MIN_CELL_POINTS)
+    for _ in range(2):  # a noisy scan needs larger cells: the noise's share falls like (points per cell)^-3
+        coarse = _Grid(uv, unit * np.sqrt(points))
+        C, Ainv, _ = coarse.fit(V, w)
+        kappa, bias = coarse.curvature(C, Ainv, noise)
+        target = (CURVATURE_RESOLUTION / max(diagonal, 1e-300)) ** 2
+        if bias <= target or points >= n // 16:
+            break
+        points = int(min(points * (bias / target) ** (1.0 / 3.0), n // 16))
+    fc = _cell_index(uv[F].mean(1), coarse.origin, coarse.step, coarse.shape)
+    a3 = face_areas_3d(V, F)
+    s3, suv = np.bincount(fc, a3, minlength=coarse.n), np.bincount(fc, auv, minlength=coarse.n)
+    has = (suv > 0).reshape(coarse.shape)
+    scale = _fill(np.sqrt(np.where(suv > 0, s3 / np.where(suv > 0, suv, 1.0), 0.0)).reshape(coarse.shape), has)
+    cnt = np.bincount(_cell_index(uv, coarse.origin, coarse.step, coarse.shape), minlength=coarse.n)
+    dense = (suv > 0) & (cnt > 0)
+    scan_spacing = _fill(np.sqrt(np.where(dense, suv / np.maximum(cnt, 1), 0.0)).reshape(coarse.shape),
+                         dense.reshape(coarse.shape))
+    return ScanAnalysis(residual=np.abs(loo), noise=noise, roughness=np.abs(loo) / np.maximum(level, 1e-300),
+                        smooth=V - r[:, None] * nrm,
+                        cell=_cell_index(uv, coarse.origin, coarse.step, coarse.shape), origin=coarse.origin,
+                        step=coarse.step, shape=coarse.shape, curvature=kappa, scale=scale, scan_spacing=scan_spacing,
+                        area=s3.reshape(coarse.shape), diagonal=diagonal)

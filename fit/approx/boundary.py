@@ -1,0 +1,199 @@
+"""Which scan vertices of each boundary loop the coarse domain keeps.
+
+    kept, corners = thin_loop(loop, uv, V, spacing, scale, roughness)   # scan ids, in loop order
+    seeds = hole_seeds([uv[k] for k in kept_loops])             # (h, 2) one point inside each hole
+
+Along a loop (scan vertex ids, the domain on the left) the kept vertices are:
+
+1. **corners**: where the outline turns by more than ``corner_angle``, measured in
+   uv and in 3D between the directions of the arcs one local spacing behind and
+   ahead (each between the centroids of its halves, so a jagged scan edge does
+   not count as a corner), on the loop without its spikes (roughness above
+   :data:`~.analysis.SPIKE_LEVELS`: never a corner), the largest turn within
+   half a spacing;
+2. **spacing**: between consecutive corners, vertices about one local spacing
+   apart (the spacing field in uv, integrated along the loop), each nudged to
+   the neighbour with the smallest roughness (a spike always; the others where
+   the loop has at least :data:`NUDGE_STEPS` vertices per kept one): straight
+   runs are thinned to the spacing;
+3. **sagitta**: where a chord between kept vertices lies farther than
+   :data:`SAGITTA` local spacings from a loop vertex it cuts off, the loop vertex
+   halfway along that run too, repeated until none is left: curved runs and
+   small holes keep their shape.
+"""
+from __future__ import annotations
+
+import numpy as np
+import triangle as tr
+from scipy import ndimage
+
+from trispline.spline.topology import triangle_areas
+
+from .analysis import SPIKE_LEVELS
+from .locate import segment_foot
+
+__all__ = ["thin_loop", "hole_seeds", "loop_segments", "CORNER_ANGLE", "SAGITTA"]
+
+#: Default turn (degrees) of the outline that makes a corner.
+CORNER_ANGLE = 35.0
+#: A chord may cut off loop vertices by at most this many local spacings.
+SAGITTA = 0.25
+#: Loop vertices per kept vertex at least, for the spaced ones to be nudged to a smoother neighbour.
+NUDGE_STEPS = 6
+#: Rounds of the sagitta refinement at most (each adds the worst vertex of every bad chord).
+SAGITTA_ROUNDS = 64
+
+
+def _arc_centroids(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Centroids ``(L, d)`` of the closed polyline ``p (L, d)`` between arc lengths ``lo`` and ``hi`` (``(L,)``,
+    any reals: the loop repeats), from the cumulative first moment of its segments."""
+    L = p.shape[0]
+    q = np.roll(p, -1, axis=0)
+    seg = np.linalg.norm(q - p, axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    total = s[-1]
+    mom = np.concatenate([np.zeros((1, p.shape[1])), np.cumsum(0.5 * (p + q) * seg[:, None], axis=0)])
+
+    def moment(x: np.ndarray) -> np.ndarray:  # first moment of the arc [0, x], x any real
+        lap, r = np.divmod(x, total)
+        i = np.clip(np.searchsorted(s, r, side="right") - 1, 0, L - 1)
+        f = r - s[i]
+        part = f[:, None] * (p[i] + 0.5 * f[:, None] * (q[i] - p[i]) / np.maximum(seg[i], 1e-300)[:, None])
+        return lap[:, None] * mom[-1] + mom[i] + part
+
+    return (moment(hi) - moment(lo)) / np.maximum(hi - lo, 1e-300)[:, None]
+
+
+def _turn(p: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """Turn angle (radians) ``(L,)`` of the closed polyline ``p (L, d)`` at each vertex: between the
+    direction of the arc ``reach`` behind it and that of the arc ``reach`` ahead, each taken between
+    the centroids of its two halves (a lone spike or a jagged edge moves them little)."""
+    seg = np.linalg.norm(np.roll(p, -1, axis=0) - p, axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])[:-1]
+    r = np.minimum(reach, 0.2 * seg.sum())
+    back = _arc_centroids(p, s - 0.5 * r, s) - _arc_centroids(p, s - r, s - 0.5 * r)
+    ahead = _arc_centroids(p, s + 0.5 * r, s + r) - _arc_centroids(p, s, s + 0.5 * r)
+    na, nb = np.linalg.norm(back, axis=1), np.linalg.norm(ahead, axis=1)
+    cos = np.einsum("nd,nd->n", back, ahead) / np.maximum(na * nb, 1e-300)
+    return np.where((na > 0) & (nb > 0), np.arccos(np.clip(cos, -1.0, 1.0)), 0.0)
+
+
+def _corners(loop: np.ndarray, uv: np.ndarray, V: np.ndarray, spacing: np.ndarray, scale: np.ndarray,
+             smooth: np.ndarray, corner_angle: float) -> tuple[np.ndarray, np.ndarray]:
+    """Positions in the loop of its corners (sorted), and the turn at every loop vertex; the turn is
+    measured on the loop without its spikes (``smooth (L,)`` False), which get turn 0."""
+    keep = np.flatnonzero(smooth) if smooth.sum() >= 3 else np.arange(loop.size)
+    p, x, h = uv[loop[keep]], V[loop[keep]], spacing[keep]
+    turn = np.zeros(loop.size)
+    turn[keep] = np.maximum(_turn(p, h), _turn(x, h * scale[keep]))
+    seg = np.linalg.norm(np.roll(p, -1, axis=0) - p, axis=1)
+    window = int(max(1, np.round(np.median(0.5 * h) / max(float(np.median(seg)), 1e-300))))
+    peak = turn >= ndimage.maximum_filter1d(turn, 2 * window + 1, mode="wrap")
+    return np.flatnonzero(peak & (turn > np.radians(corner_angle))), turn
+
+
+def _spaced(tau: np.ndarray, anchors: np.ndarray, L: int) -> np.ndarray:
+    """Loop positions about one unit of ``tau`` apart between consecutive ``anchors`` (cyclic)."""
+    total = tau[-1]
+    a0 = anchors
+    t0 = tau[a0]
+    t1 = np.concatenate([tau[a0[1:]], [tau[a0[0]] + total]])
+    m = np.maximum(np.round(t1 - t0).astype(np.int64), 1)
+    run = np.repeat(np.arange(a0.size), m - 1)
+    j = np.arange(run.size) - np.repeat(np.cumsum(m - 1) - (m - 1), m - 1) + 1
+    target = t0[run] + j * (t1 - t0)[run] / m[run]
+    tau2 = np.concatenate([tau[:-1], tau[:-1] + total])
+    pos = np.clip(np.searchsorted(tau2, target), 1, 2 * L - 1)
+    pos = np.where(target - tau2[pos - 1] < tau2[pos] - target, pos - 1, pos)
+    return pos % L
+
+
+def _sagitta(p: np.ndarray, keep: np.ndarray, limit: np.ndarray) -> np.ndarray:
+    """Sorted loop positions: ``keep`` plus, per chord that cuts off a loop vertex farther than
+    ``limit`` (per vertex), the loop vertex halfway along its run, until every chord is within the limit
+    (halving keeps the spacing even; a smooth run's sagitta falls four times a round)."""
+    L = p.shape[0]
+    for _ in range(SAGITTA_ROUNDS):
+        nxt = np.concatenate([keep[1:], [keep[0] + L]])
+        cnt = nxt - keep - 1  # loop vertices strictly between consecutive kept ones
+        if cnt.max(initial=0) <= 0:
+            return keep
+        run = np.repeat(np.arange(keep.size), cnt)
+        idx = (np.arange(run.size) - np.repeat(np.cumsum(cnt) - cnt, cnt) + 1 + keep[run]) % L
+        _, foot = segment_foot(p[idx], p[keep[run]], p[nxt[run] % L])
+        excess = np.linalg.norm(p[idx] - foot, axis=1) - limit[idx]
+        worst = np.full(keep.size, -np.inf)
+        np.maximum.at(worst, run, excess)
+        bad = np.flatnonzero(worst > 0)
+        if bad.size == 0:
+            return keep
+        keep = np.unique(np.concatenate([keep, (keep[bad] + 1 + cnt[bad] // 2) % L]))
+    return keep
+
+
+def thin_loop(loop: np.ndarray, uv: np.ndarray, V: np.ndarray, spacing: np.ndarray, scale: np.ndarray,
+              roughness: np.ndarray, *, corner_angle: float = CORNER_ANGLE) -> tuple[np.ndarray, np.ndarray]:
+    """The kept vertices of one boundary loop.
+
+    Parameters
+    ----------
+    loop : (L,) scan vertex ids, the domain on the left
+    uv : (n, 2), V : (n, 3) the scan's domain points and vertices
+    spacing : (L,) the local target spacing in uv at each loop vertex
+    scale : (L,) 3D length per uv length there (for the 3D turn)
+    roughness : (n,) every scan vertex's residual against its local level (``ScanAnalysis.roughness``)
+
+    Returns
+    -------
+    kept : (k,) scan ids in loop order (``k >= 3``); corners : (c,) the scan ids among them that are corners
+    """
+    L = loop.size
+    corners, turn = _corners(loop, uv, V, spacing, scale, roughness[loop] <= SPIKE_LEVELS, corner_angle)
+    anchors = corners if corners.size else np.array([int(np.argmax(turn))])
+    p = uv[loop]
+    seg = np.linalg.norm(np.roll(p, -1, axis=0) - p, axis=1)
+    tau = np.concatenate([[0.0], np.cumsum(seg / np.maximum(0.5 * (spacing + np.roll(spacing, -1)), 1e-300))])
+    spaced = _spaced(tau, anchors, L)
+    # nudge each spaced vertex to the smoothest of its two loop neighbours and itself: every spike, and
+    # the others where a step of one loop vertex is small against the spacing (no short boundary edges)
+    nudge = roughness[loop[spaced]] > SPIKE_LEVELS
+    nudge |= L >= NUDGE_STEPS * max(spaced.size + anchors.size, 1)
+    cand = (spaced[nudge, None] + np.array([-1, 0, 1])) % L
+    spaced[nudge] = cand[np.arange(cand.shape[0]), np.argmin(roughness[loop[cand]], axis=1)]
+    keep = np.unique(np.concatenate([anchors, spaced]))
+    if keep.size < 3:
+        keep = np.unique(np.concatenate([keep, (keep[0] + np.array([L // 3, (2 * L) // 3])) % L]))
+    keep = _sagitta(p, keep, SAGITTA * spacing)
+    # a spike that the sagitta or the minimum of three brought in gives way to a smoother neighbour
+    spike = np.flatnonzero((roughness[loop[keep]] > SPIKE_LEVELS) & ~np.isin(keep, anchors))
+    if spike.size:
+        cand = (keep[spike, None] + np.array([-1, 1])) % L
+        alt = cand[np.arange(spike.size), np.argmin(roughness[loop[cand]], axis=1)]
+        free = ~np.isin(alt, keep)
+        keep[spike[free]] = alt[free]
+        keep = np.unique(keep)
+    return loop[keep], loop[corners]
+
+
+def loop_segments(sizes: list[int]) -> np.ndarray:
+    """``(s, 2)`` closing chords of consecutive loops of the given sizes, stacked in one vertex list."""
+    out, base = [], 0
+    for k in sizes:
+        i = np.arange(k)
+        out.append(base + np.column_stack([i, (i + 1) % k]))
+        base += k
+    return np.concatenate(out) if out else np.empty((0, 2), np.int64)
+
+
+def hole_seeds(loops_uv: list[np.ndarray]) -> np.ndarray:
+    """One point strictly inside each hole ``(h, 2)``: each clockwise loop ``(k, 2)`` triangulated on its own,
+    the centroid of its largest triangle."""
+    seeds = []
+    for p in loops_uv:
+        area = 0.5 * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1])
+        if area >= 0:  # counter-clockwise: the outer loop
+            continue
+        t = tr.triangulate({"vertices": p, "segments": loop_segments([p.shape[0]])}, "p")
+        T = t["vertices"][t["triangles"]]
+        seeds.append(T[np.argmax(np.abs(triangle_areas(T[:, 0], T[:, 1], T[:, 2])))].mean(0))
+    return np.array(seeds).reshape(-1, 2)

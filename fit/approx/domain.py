@@ -1,0 +1,492 @@
+"""The coarse control triangulation of a dense scan, in the scan's own uv domain.
+
+    dom = coarse_domain(V, F, uv, n_vertices=2000)   # CoarseDomain
+    dom.uv, dom.faces, dom.vertices                  # (k, 2), (f, 3) counter-clockwise, (k,) scan vertex ids
+    dom.stats                                        # DomainStats: counts, the minimum angle, the noise
+    hit = dom.locate_scan()                          # every scan vertex in the coarse domain (Located)
+    dom = insert(dom, new_ids)                       # the refinement step: more scan vertices, re-triangulated
+
+Every coarse vertex is a scan vertex (``uv == scan_uv[vertices]``), so a spline
+corner point can interpolate its data vertex. How the vertices are chosen:
+
+1. :func:`~.analysis.analyse_scan` fits robust quadrics over a uv cell grid: each
+   vertex's residual (noise, spikes), the noise level and, on a coarser grid, the
+   curvature of the data.
+2. A sizing field: vertex density per 3D area proportional to
+   ``(kappa + kappa_0) ** adapt`` with ``kappa_0`` the larger of the median
+   curvature and one over the diagonal (denser where the data bends; the spacing
+   within :data:`GRADING` times the median's either way), scaled to the vertex
+   budget or to the given spacing, turned into a uv spacing by the cell's 3D/uv scale.
+3. The boundary loops are thinned (:mod:`.boundary`): corners kept, straight
+   runs spaced, curved runs kept within a sagitta.
+4. Triangle (Shewchuk's, the ``triangle`` wheel) fills the interior with a
+   quality mesh: switches ``p`` (the boundary chords as segments, holes marked by
+   a seed inside each), ``Y`` (no point inserted on a boundary segment), ``q``
+   (minimum angle :data:`QUALITY_ANGLE`), ``a`` with per-triangle areas from the
+   sizing field, refined a few rounds (``r``); the density is recalibrated until the
+   count meets the budget (within 3%, an excess trimmed).
+5. Each point Triangle added is snapped to a scan vertex within
+   :data:`SNAP_RADIUS` local spacings (less near the boundary), the one of smallest
+   ``(distance / radius)^2 + (roughness / 3)^2`` (near, and smooth; never a
+   spike, :attr:`~.analysis.ScanAnalysis.roughness`), inside the coarse polygon and not much nearer to its
+   boundary than the point was (:data:`SNAP_CLEARANCE`).
+6. The kept scan vertices are triangulated once more with ``p`` alone: a
+   constrained Delaunay triangulation that inserts no point (checked: a chord
+   crossing another would make Triangle insert one; its run then keeps one more
+   scan vertex and the triangulation is repeated).
+7. A few rounds of :func:`~.quality.better_vertices` move interior vertices of
+   faces with a small angle to nearby smooth scan vertices where that widens
+   their smallest angle, each round re-triangulated.
+
+Scan vertices outside the coarse polygon (between a boundary chord and the scan's
+outline) are located by clamping them to the nearest boundary point
+(:class:`~.locate.ClampedLocator`); ``Located.clamped`` says which.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import triangle as tr
+from scipy.spatial import cKDTree
+
+from trispline.spline.checks import as_array, check_ids
+from trispline.spline.errors import InputError, TriangulationError
+from trispline.spline.topology import Triangulation, signed_areas, triangle_areas
+
+from .analysis import SPIKE_LEVELS, ScanAnalysis, analyse_scan
+from .boundary import CORNER_ANGLE, hole_seeds, loop_segments, thin_loop
+from .locate import ClampedLocator, Located
+from .quality import REPAIR_ROUNDS, better_vertices, face_angles
+
+__all__ = ["CoarseDomain", "DomainStats", "coarse_domain", "insert", "face_angles",
+           "ADAPT", "DEFAULT_FRACTION"]
+
+#: Default vertex budget as a fraction of the scan's vertices.
+DEFAULT_FRACTION = 0.02
+#: Default exponent of the curvature in the vertex density (0: uniform in 3D).
+ADAPT = 0.5
+#: Largest ratio of the local spacing to the median spacing, either way (the density's: its square).
+GRADING = 3.0
+#: The target spacing stays at least this many scan spacings (finer, the snap to scan vertices spoils angles).
+MIN_SCAN_SPACINGS = 2.5
+#: Minimum angle (degrees) asked of Triangle's quality mesh before the snap.
+QUALITY_ANGLE = 28.0
+#: Triangle's largest area per vertex spacing ``h``: this times the equilateral ``sqrt(3)/4 h^2``.
+AREA_FACTOR = 1.6
+#: Rounds of area refinement (``r``) after the first quality mesh.
+REFINE_ROUNDS = 4
+#: Smallest curvature cell (scan vertices); else about four coarse vertices' worth.
+MIN_CURVATURE_POINTS = 64
+#: Passes of budget calibration (the vertex count scales the density).
+BUDGET_PASSES = 3
+#: A Triangle point snaps to a scan vertex at most this many local spacings away (or to the nearest one).
+SNAP_RADIUS = 0.3
+#: ... inside the coarse polygon, at least this times the Triangle point's distance from its boundary.
+SNAP_CLEARANCE = 0.5
+#: Scan vertices considered per Triangle point.
+SNAP_CANDIDATES = 16
+#: Default of :func:`insert`'s ``min_separation`` (in face sizes).
+MIN_SEPARATION = 0.2
+#: Rounds of splitting chords that cross (each needs one more boundary vertex).
+CROSSING_ROUNDS = 8
+
+
+@dataclass(frozen=True)
+class DomainStats:
+    """Counts and quality of a coarse domain.
+
+    min_angle, mean_min_angle : the smallest face angle and the mean of each face's smallest (degrees)
+    noise : the scan's robust noise estimate (model units); spacing : the median target spacing (3D)
+    """
+
+    n_vertices: int
+    n_faces: int
+    n_boundary: int
+    n_corners: int
+    n_holes: int
+    n_scan: int
+    min_angle: float
+    mean_min_angle: float
+    noise: float
+    spacing: float
+
+
+@dataclass(frozen=True, eq=False)
+class CoarseDomain:
+    """A planar triangulation on a subset of a scan's vertices.
+
+    uv : (k, 2) float64, ``scan_uv[vertices]``; faces : (f, 3) int64, counter-clockwise
+    vertices : (k,) int64 scan vertex ids, the boundary loops' first (in loop order), then the interior
+    boundary : tuple of (b_i,) scan ids kept on each scan boundary loop, in loop order
+    corners : (c,) scan ids of the outline's corners (all kept)
+    loops : tuple of (L_i,) the scan's boundary loops (domain on the left)
+    scan_uv : (n, 2) the scan's uv (not copied)
+    stats : DomainStats
+    analysis : the :class:`ScanAnalysis` the vertices were chosen with
+    """
+
+    uv: np.ndarray
+    faces: np.ndarray
+    vertices: np.ndarray
+    boundary: tuple[np.ndarray, ...]
+    corners: np.ndarray
+    loops: tuple[np.ndarray, ...]
+    scan_uv: np.ndarray
+    stats: DomainStats
+    analysis: ScanAnalysis
+
+    @cached_property
+    def triangulation(self) -> Triangulation:
+        """The validated :class:`Triangulation` (what ``build_space`` takes)."""
+        return Triangulation(self.uv, self.faces)
+
+    @cached_property
+    def locator(self) -> ClampedLocator:
+        return ClampedLocator(self.uv, self.faces, triangulation=self.triangulation)
+
+    def locate(self, points: np.ndarray) -> Located:
+        """Faces and barycentric coordinates of uv ``points (m, 2)``; points outside are clamped."""
+        return self.locator(points)
+
+    def locate_scan(self) -> Located:
+        """Every scan vertex located in the coarse domain (``(n,)`` rows)."""
+        return self.locator(self.scan_uv)
+
+
+class _Sizing:
+    """Target vertex spacing over the uv domain: density ``lam * w`` per 3D area, ``w`` from the curvature."""
+
+    def __init__(self, a: ScanAnalysis, adapt: float) -> None:
+        k = a.curvature
+        has = a.area > 0
+        floor = max(float(np.median(k[has])) if has.any() else 0.0, 1.0 / max(a.diagonal, 1e-300))
+        w = (k + floor) ** adapt
+        wm = float(np.median(w[has])) if has.any() else 1.0
+        self.w = np.clip(w, wm / GRADING**2, wm * GRADING**2)
+        self.w_median, self.a = wm, a
+
+    def lam_for_count(self, n: float) -> float:
+        """Density scale giving about ``n`` vertices over the scan."""
+        return n / max(float((self.w * self.a.area).sum()), 1e-300)
+
+    def lam_for_spacing(self, spacing: float) -> float:
+        """Density scale giving the spacing ``spacing`` (3D) where the weight is the median."""
+        return 2.0 / (np.sqrt(3.0) * spacing**2) / self.w_median
+
+    def spacing3d(self, lam: float, points: np.ndarray) -> np.ndarray:
+        """Target 3D spacing ``(m,)`` at uv ``points (m, 2)``: an equilateral mesh of that density."""
+        return np.sqrt(2.0 / (np.sqrt(3.0) * lam * self.a.lookup(self.w, points)))
+
+    def spacing(self, lam: float, points: np.ndarray) -> np.ndarray:
+        """Target uv spacing ``(m,)`` at uv ``points (m, 2)``, never below :data:`MIN_SCAN_SPACINGS` of the scan's."""
+        h = self.spacing3d(lam, points) / np.maximum(self.a.lookup(self.a.scale, points), 1e-300)
+        return np.maximum(h, MIN_SCAN_SPACINGS * self.a.lookup(self.a.scan_spacing, points))
+
+
+def _thin_boundary(loops: tuple[np.ndarray, ...], uv: np.ndarray, sizing: _Sizing, lam: float,
+                   corner_angle: float) -> tuple[list[np.ndarray], np.ndarray]:
+    """Kept scan ids of every loop, and all corners (3D turns measured on the denoised scan)."""
+    kept, corners = [], []
+    for loop in loops:
+        p = uv[loop]
+        k, c = thin_loop(loop, uv, sizing.a.smooth, sizing.spacing(lam, p), sizing.a.lookup(sizing.a.scale, p),
+                         sizing.a.roughness, corner_angle=corner_angle)
+        kept.append(k)
+        corners.append(c)
+    return kept, np.concatenate(corners)
+
+
+def _quality_mesh(P: np.ndarray, segments: np.ndarray, holes: np.ndarray, sizing: _Sizing, lam: float
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Triangle's graded quality mesh inside the boundary ``P (b, 2)``: vertices ``(b + s, 2)`` (the
+    boundary's first, then the ``s`` added points) and triangles ``(t, 3)``."""
+    def area(pts: np.ndarray) -> np.ndarray:
+        return AREA_FACTOR * np.sqrt(3.0) / 4.0 * sizing.spacing(lam, pts) ** 2
+
+    pslg = {"vertices": P, "segments": segments}
+    if holes.size:
+        pslg["holes"] = holes
+    t = tr.triangulate(pslg, f"pYq{QUALITY_ANGLE}a{float(area(P).max()):.17g}")
+    for _ in range(REFINE_ROUNDS):
+        T = t["vertices"][t["triangles"]]
+        target = area(T.mean(1))
+        if (np.abs(triangle_areas(T[:, 0], T[:, 1], T[:, 2])) <= target).all():
+            break
+        t = tr.triangulate({**t, "triangle_max_area": target}, f"rpYq{QUALITY_ANGLE}a")
+    return t["vertices"], np.asarray(t["triangles"], np.int64)
+
+
+class _ScanIndex:
+    """A KD-tree over the scan's uv, for snapping Triangle's points to scan vertices."""
+
+    def __init__(self, uv: np.ndarray, loops: tuple[np.ndarray, ...]) -> None:
+        self.uv = uv
+        self.tree = cKDTree(uv)
+        self.on_boundary = np.zeros(uv.shape[0], bool)
+        self.on_boundary[np.concatenate(loops)] = True
+
+    def snap(self, mesh: tuple[np.ndarray, np.ndarray], nb: int, spacing: np.ndarray, roughness: np.ndarray
+             ) -> np.ndarray:
+        """Scan ids ``(<= s,)`` for the points Triangle added (``mesh[0][nb:]``); module docstring, step 5.
+
+        A candidate must lie inside the coarse polygon (the quality mesh covers it exactly)
+        at least :data:`SNAP_CLEARANCE` times the Triangle point's own distance from the
+        boundary chords, and off the scan's outline.
+        """
+        points = mesh[0][nb:]
+        if points.shape[0] == 0:
+            return np.empty(0, np.int64)
+        k = min(SNAP_CANDIDATES, self.uv.shape[0])
+        dist, cand = self.tree.query(points, k=k)
+        dist, cand = dist.reshape(-1, k), cand.reshape(-1, k)
+        poly = ClampedLocator(*mesh)
+        gap = np.linalg.norm(poly.project(points)[2] - points, axis=1)  # Triangle point to the chords
+        radius = SNAP_RADIUS * np.minimum(spacing, 2.0 * gap)[:, None]
+        near = ((dist <= radius) | (np.arange(k) == 0)) & ~self.on_boundary[cand]
+        near &= roughness[cand] <= SPIKE_LEVELS  # never a spike
+        ok = np.zeros(cand.shape, bool)
+        c = self.uv[cand[near]]
+        inside = poly.locator(c)[0] >= 0
+        ok[near] = inside & (np.linalg.norm(poly.project(c)[2] - c, axis=1) >= SNAP_CLEARANCE * np.broadcast_to(
+            gap[:, None], cand.shape)[near])
+        score = np.where(ok, (dist / radius) ** 2 + (roughness[cand] / 3.0) ** 2, np.inf)
+        j = np.argmin(score, axis=1)
+        rows = np.arange(points.shape[0])
+        good = np.isfinite(score[rows, j])
+        return np.unique(cand[rows, j][good])
+
+
+def _crossed(P: np.ndarray, segments: np.ndarray, extra: np.ndarray) -> np.ndarray:
+    """Indices of the segments on which Triangle put the points ``extra (e, 2)`` (crossings)."""
+    from .locate import segment_foot
+
+    a, b = P[segments[:, 0]], P[segments[:, 1]]
+    _, foot = segment_foot(extra[:, None, :], a[None], b[None])
+    d = np.linalg.norm(foot - extra[:, None, :], axis=2)
+    scale = np.linalg.norm(b - a, axis=1)[None, :]
+    return np.unique(np.flatnonzero((d <= 1e-9 * scale + 1e-300).any(0)))
+
+
+def _split_runs(boundary: list[np.ndarray], loops: tuple[np.ndarray, ...], position: np.ndarray,
+                chords: np.ndarray) -> list[np.ndarray]:
+    """Each loop's kept ids plus, for every chord in ``chords`` (stacked segment ids), the
+    scan loop vertex halfway along its run."""
+    out, base = [], 0
+    for kept, loop in zip(boundary, loops):
+        mine = chords[(chords >= base) & (chords < base + kept.size)] - base
+        pos = position[kept]
+        nxt = np.roll(pos, -1)
+        nxt = np.where(nxt <= pos, nxt + loop.size, nxt)
+        mid = ((pos[mine] + nxt[mine]) // 2) % loop.size
+        add = mid[(nxt[mine] - pos[mine]) > 1]
+        out.append(loop[np.unique(np.concatenate([pos, add]))])
+        base += kept.size
+    return out
+
+
+def _triangulate(uv: np.ndarray, boundary: list[np.ndarray], interior: np.ndarray, loops: tuple[np.ndarray, ...],
+                 position: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """Constrained Delaunay triangulation of kept scan vertices, inserting none.
+
+    Returns the (possibly split) boundary, the vertex ids ``(k,)`` (boundary first)
+    and the faces ``(f, 3)`` counter-clockwise, unused interior vertices dropped.
+    """
+    for _ in range(CROSSING_ROUNDS):
+        ids = np.concatenate([*boundary, interior])
+        P = uv[ids]
+        segments = loop_segments([b.size for b in boundary])
+        holes = hole_seeds([uv[b] for b in boundary])
+        pslg = {"vertices": P, "segments": segments}
+        if holes.size:
+            pslg["holes"] = holes
+        t = tr.triangulate(pslg, "p")
+        if t["vertices"].shape[0] == P.shape[0]:
+            break
+        boundary = _split_runs(boundary, loops, position, _crossed(P, segments, t["vertices"][P.shape[0]:]))
+    else:
+        raise InputError("the coarse domain's boundary chords still cross after "
+                         f"{CROSSING_ROUNDS} rounds of splitting; the uv map's outline may touch itself")
+    faces = np.asarray(t["triangles"], np.int64)
+    neg = signed_areas(P, faces) < 0
+    faces[neg] = faces[neg][:, [0, 2, 1]]
+    used = np.zeros(ids.size, bool)
+    used[faces.ravel()] = True
+    remap = np.cumsum(used) - 1
+    return boundary, ids[used], remap[faces]
+
+
+def _domain(scan_uv: np.ndarray, boundary: list[np.ndarray], interior: np.ndarray, corners: np.ndarray,
+            loops: tuple[np.ndarray, ...], position: np.ndarray, analysis: ScanAnalysis, spacing: float
+            ) -> CoarseDomain:
+    """Triangulate, validate and collect the statistics."""
+    boundary, ids, faces = _triangulate(scan_uv, boundary, interior, loops, position)
+    uv = np.ascontiguousarray(scan_uv[ids])
+    try:
+        tri = Triangulation(uv, faces)
+    except TriangulationError as exc:
+        raise InputError(f"the coarse domain on {ids.size} scan vertices is not a valid triangulation ({exc}); "
+                         "the vertex budget may be too small for the scan's outline and holes") from None
+    if len(tri.boundary_loops) != len(loops):
+        raise InputError(f"the coarse domain on {ids.size} scan vertices has {len(tri.boundary_loops)} boundary "
+                         f"loops, the scan {len(loops)}; the vertex budget may be too small for its outline and holes")
+    ang = face_angles(uv, faces)
+    nb = int(sum(b.size for b in boundary))
+    stats = DomainStats(n_vertices=int(ids.size), n_faces=int(faces.shape[0]), n_boundary=nb,
+                        n_corners=int(corners.size), n_holes=len(boundary) - 1, n_scan=int(scan_uv.shape[0]),
+                        min_angle=float(ang.min()), mean_min_angle=float(ang.min(1).mean()),
+                        noise=analysis.noise, spacing=float(spacing))
+    dom = CoarseDomain(uv=uv, faces=faces, vertices=ids, boundary=tuple(boundary), corners=corners,
+                       loops=loops, scan_uv=scan_uv, stats=stats, analysis=analysis)
+    dom.__dict__["triangulation"] = tri  # the cached property, already validated
+    return dom
+
+
+def _loop_position(loops: tuple[np.ndarray, ...], n: int) -> np.ndarray:
+    """``(n,)`` position of each scan vertex in its boundary loop; -1 for interior vertices."""
+    pos = np.full(n, -1, np.int64)
+    for loop in loops:
+        pos[loop] = np.arange(loop.size)
+    return pos
+
+
+def coarse_domain(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, n_vertices: int | None = None,
+                  spacing: float | None = None, adapt: float = ADAPT, corner_angle: float = CORNER_ANGLE,
+                  ) -> CoarseDomain:
+    """Choose and triangulate a subset of the scan's vertices; see the module docstring.
+
+    Parameters
+    ----------
+    V : (n, 3) scan vertices; F : (m, 3) faces, counter-clockwise in ``uv``; uv : (n, 2) fold-free
+        planar map of the scan (e.g. ``parameterize(V, F, "lscm")``'s ``uv`` and ``faces``)
+    n_vertices : vertex budget (the result has at most this many); default
+        :data:`DEFAULT_FRACTION` of the scan when ``spacing`` is not given either
+    spacing : target 3D spacing where the curvature weight is the median (with a budget too,
+        the budget caps the count)
+    adapt : exponent of the curvature in the density (0: uniform spacing in 3D)
+    corner_angle : turn of the outline (degrees) kept as a corner
+
+    Raises
+    ------
+    InputError
+        Bad arrays, a non-positive budget or spacing, or a budget below what the
+        boundary needs (the message names both counts).
+    """
+    V = as_array(V, "V", (None, 3), finite=True, min_rows=3)
+    uv = as_array(uv, "uv", (V.shape[0], 2), finite=True)
+    F = check_ids(as_array(F, "F", (None, 3), integer=True, min_rows=1), "F", V.shape[0])
+    n = V.shape[0]
+    if spacing is not None and not (np.isfinite(spacing) and spacing > 0):
+        raise InputError(f"spacing must be finite and > 0, got {spacing}")
+    if n_vertices is None and spacing is None:
+        n_vertices = max(16, int(round(DEFAULT_FRACTION * n)))
+    if n_vertices is not None and not (int(n_vertices) == n_vertices and 3 <= n_vertices):
+        raise InputError(f"n_vertices must be an integer >= 3, got {n_vertices}")
+    loops = tuple(Triangulation(uv, F).boundary_loops)
+    if not loops:
+        raise InputError("the scan has no boundary loop; coarse domains are for open scans")
+    per_vertex = n / n_vertices if n_vertices is not None else 1.0
+    a = analyse_scan(V, F, uv, curvature_points=max(MIN_CURVATURE_POINTS, int(4 * per_vertex)))
+    sizing = _Sizing(a, adapt)
+    lam = sizing.lam_for_spacing(spacing) if spacing is not None else sizing.lam_for_count(n_vertices)
+    index = _ScanIndex(uv, loops)
+    position = _loop_position(loops, n)
+    boundary, interior, corners, lam = _choose(uv, loops, sizing, lam, n_vertices, corner_angle, index, position)
+    allowed = ~index.on_boundary & ~a.spike
+    for _ in range(REPAIR_ROUNDS):
+        boundary, ids, faces = _triangulate(uv, boundary, interior, loops, position)
+        nb = sum(b.size for b in boundary)
+        moved = better_vertices(uv, index.tree, ids, faces, np.arange(ids.size) >= nb, allowed)
+        if (moved == ids).all():
+            break
+        interior = moved[nb:]
+    median_spacing = float(np.median(sizing.spacing3d(lam, uv[:: max(1, n // 4096)])))
+    return _domain(uv, boundary, interior, corners, loops, position, a, median_spacing)
+
+
+def _choose(uv: np.ndarray, loops: tuple[np.ndarray, ...], sizing: _Sizing, lam: float, budget: int | None,
+            corner_angle: float, index: "_ScanIndex", position: np.ndarray
+            ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray, float]:
+    """Kept boundary ids per loop, interior ids, corners and the final density scale.
+
+    With a budget, the density scale is recalibrated from the interior count reached
+    (about proportional to it) until the total is within 3% below the budget or after
+    :data:`BUDGET_PASSES` passes; an excess left then is trimmed (:func:`_trim`). A
+    boundary that alone exceeds the budget is thinned with a coarser spacing first.
+    """
+    for it in range(2 * BUDGET_PASSES):
+        boundary, corners = _thin_boundary(loops, uv, sizing, lam, corner_angle)
+        boundary = _triangulate(uv, boundary, np.empty(0, np.int64), loops, position)[0]  # chords uncrossed
+        nb = sum(b.size for b in boundary)
+        if budget is not None and nb > budget:
+            if it == 2 * BUDGET_PASSES - 1:
+                raise InputError(f"a budget of {budget} vertices is below what the boundary needs: it took {nb} "
+                                 f"vertices ({corners.size} corners, {len(loops)} loops) at the coarsest spacing tried")
+            lam *= 0.5 * (budget / nb) ** 2
+            continue
+        P = uv[np.concatenate(boundary)]
+        mesh = _quality_mesh(P, loop_segments([b.size for b in boundary]), hole_seeds([uv[b] for b in boundary]),
+                             sizing, lam)
+        interior = index.snap(mesh, nb, sizing.spacing(lam, mesh[0][nb:]), sizing.a.roughness)
+        total = nb + interior.size
+        if budget is None or 0.97 * budget <= total <= budget:
+            break
+        if it >= BUDGET_PASSES - 1 and total > budget:
+            interior = _trim(uv, interior, total - budget, sizing, lam)
+            break
+        lam *= max(budget - nb, 1) / max(interior.size, 1)
+    return boundary, interior, corners, lam
+
+
+def _trim(uv: np.ndarray, interior: np.ndarray, excess: int, sizing: _Sizing, lam: float) -> np.ndarray:
+    """``interior`` less the ``excess`` vertices nearest their neighbours against the local spacing."""
+    if excess <= 0 or interior.size < 2:
+        return interior
+    p = uv[interior]
+    d = cKDTree(p).query(p, k=2)[0][:, 1] / sizing.spacing(lam, p)
+    return np.sort(interior[np.argsort(d, kind="stable")[excess:]])
+
+
+def insert(domain: CoarseDomain, new_vertices: np.ndarray, *, min_separation: float = MIN_SEPARATION
+           ) -> CoarseDomain:
+    """``domain`` with more scan vertices, re-triangulated (the refinement loop's step).
+
+    ``new_vertices (m,)``: scan ids; ones already in the domain are ignored. A scan
+    boundary vertex joins its loop's kept vertices (splitting that chord). A vertex
+    outside the coarse polygon (between a chord and the outline), or nearer than
+    ``min_separation`` face sizes (``sqrt(2 area)`` of the coarse face it falls in) to a
+    boundary chord, brings in the scan boundary vertex nearest to it instead, which
+    moves the chord out toward it. A vertex nearer than that to a vertex of its face,
+    or to another new vertex (the first one stays), is skipped: it could only make a
+    sliver.
+    """
+    n = domain.scan_uv.shape[0]
+    ids = check_ids(as_array(new_vertices, "new_vertices", (None,), integer=True), "new_vertices", n)
+    ids = np.setdiff1d(np.unique(ids), domain.vertices)
+    position = _loop_position(domain.loops, n)
+    on_loop, inner = ids[position[ids] >= 0], ids[position[ids] < 0]
+    if inner.size:
+        p = domain.scan_uv[inner]
+        hit = domain.locate(p)
+        size = np.sqrt(2.0 * domain.triangulation.areas[hit.face]) * min_separation
+        corner = np.linalg.norm(domain.uv[domain.faces[hit.face]] - p[:, None, :], axis=2).min(1)
+        chord = np.linalg.norm(domain.locator.project(p)[2] - p, axis=1)
+        to_loop = hit.clamped | (chord < size)
+        keep = ~to_loop & (corner >= size)
+        pairs = cKDTree(p).query_pairs(float(np.median(size)), output_type="ndarray")
+        if pairs.size:
+            keep[pairs.max(1)] = False
+        if to_loop.any():
+            bnd = np.concatenate(domain.loops)
+            near = cKDTree(domain.scan_uv[bnd]).query(p[to_loop])[1]
+            on_loop = np.union1d(on_loop, bnd[near])
+        inner = inner[keep]
+    boundary = []
+    for kept, loop in zip(domain.boundary, domain.loops):
+        add = on_loop[np.isin(on_loop, loop)]
+        boundary.append(loop[np.unique(position[np.concatenate([kept, add])])])
+    nb = sum(b.size for b in domain.boundary)
+    interior = np.union1d(domain.vertices[nb:], inner)
+    return _domain(domain.scan_uv, boundary, interior, domain.corners, domain.loops, position, domain.analysis,
+                   domain.stats.spacing)
