@@ -40,6 +40,8 @@ NEWTON_STEPS = 8
 NEWTON_FINAL_STEP = 1e-6
 #: A rejected (damped) step this short (relative) ends a point's iterations.
 NEWTON_RTOL = 1e-13
+#: A closest point with a barycentric coordinate below this opposite a boundary edge is on the boundary.
+BOUNDARY_BARY = 1e-12
 #: Newton iterations along a boundary edge for a step that left the domain.
 EDGE_STEPS = 3
 #: Points refined together (the second-derivative arrays take about 1.5 kB a point).
@@ -96,11 +98,13 @@ def distance_model(d: PatchDerivatives, P: np.ndarray) -> tuple[np.ndarray, np.n
     return g, H
 
 
-def newton_step(d: PatchDerivatives, P: np.ndarray) -> np.ndarray:
-    """Newton step ``(n, 2)`` toward the closest point of the surface to ``P (n, 3)``.
+def newton_step(d: PatchDerivatives, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Newton step ``(n, 2)`` toward the closest point of the surface to ``P (n, 3)``, and ``(n,)`` where
+    it is the true Newton step (quadratic convergence).
 
-    Where the Hessian of :func:`distance_model` is not positive definite (a point far
-    on the concave side) the Gauss--Newton matrix ``J^T J`` is used instead.
+    Where the Hessian of :func:`distance_model` is not positive definite (a point
+    beyond a focal point of the surface) the Gauss--Newton matrix ``J^T J`` is used
+    instead (linear convergence).
     """
     g, H = distance_model(d, P)
     det = H[:, 0, 0] * H[:, 1, 1] - H[:, 0, 1] * H[:, 1, 0]
@@ -110,8 +114,9 @@ def newton_step(d: PatchDerivatives, P: np.ndarray) -> np.ndarray:
         H[bad] = np.einsum("ndk,ndl->nkl", J, J)
         det = H[:, 0, 0] * H[:, 1, 1] - H[:, 0, 1] * H[:, 1, 0]
     det = np.where(np.abs(det) > 0, det, np.inf)
-    return -np.column_stack([H[:, 1, 1] * g[:, 0] - H[:, 0, 1] * g[:, 1],
+    step = -np.column_stack([H[:, 1, 1] * g[:, 0] - H[:, 0, 1] * g[:, 1],
                              H[:, 0, 0] * g[:, 1] - H[:, 1, 0] * g[:, 0]]) / det[:, None]
+    return step, ~bad
 
 
 def triangle_bary(C: np.ndarray, T: np.ndarray) -> np.ndarray:
@@ -165,13 +170,12 @@ class _Refiner:
         return face, bary
 
     def refine(self, P: np.ndarray, face: np.ndarray, bary: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Refined ``face, bary, values, on_boundary`` for points ``P (n, 3)`` starting at ``face, bary``.
+        """Refined ``face, bary, values`` for points ``P (n, 3)`` starting at ``face, bary``.
 
-        A step shorter than :data:`NEWTON_FINAL_STEP` (relative) ends a point's iterations:
-        Newton's quadratic convergence leaves an error of about its square.
+        A full Newton step shorter than :data:`NEWTON_FINAL_STEP` (relative) ends a point's
+        iterations: quadratic convergence leaves an error of about its square.
         """
         n = P.shape[0]
-        on_b = np.zeros(n, bool)
         damp = np.ones(n)
         act = np.arange(n)
         d0 = self.surface.evaluate_derivatives(face, bary, second=True)
@@ -182,22 +186,25 @@ class _Refiner:
             if act.size == 0:
                 break
             d = PatchDerivatives(**{k: a[act] for k, a in store.items()})
-            step = damp[act, None] * newton_step(d, P[act])
+            step, exact = newton_step(d, P[act])
+            step *= damp[act, None]
             size = np.linalg.norm(d.du * step[:, :1] + d.dv * step[:, 1:], axis=1)
             hit = self.loc(self.uv_of(face[act], bary[act]) + step, hint=face[act])
             f_new, b_new = hit.face, hit.bary
             c = np.flatnonzero(hit.clamped)
             if c.size:
                 f_new[c], b_new[c] = self.along_edges(P[act[c]], hit.edge[c], hit.t[c])
-            last = (size < NEWTON_FINAL_STEP * self.size) & ~hit.clamped
+            last = (size < NEWTON_FINAL_STEP * self.size) & exact & (damp[act] == 1.0) & ~hit.clamped
             v_new = np.empty((act.size, 3))
             v_new[last] = self.surface.evaluate(f_new[last], b_new[last])
             d_new = self.surface.evaluate_derivatives(f_new[~last], b_new[~last], second=True)
             v_new[~last] = d_new.values
             D_new = np.einsum("nd,nd->n", v_new - P[act], v_new - P[act])
-            better = D_new < D[act]
+            # closer; or, for a step inside the domain, not farther up to rounding (near the minimum a
+            # step changes |S - P|^2 by less than an ulp)
+            better = (D_new < D[act]) | ((D_new <= D[act] * (1.0 + 4 * np.finfo(float).eps)) & ~hit.clamped)
             k = act[better]
-            face[k], bary[k], D[k], on_b[k] = f_new[better], b_new[better], D_new[better], hit.clamped[better]
+            face[k], bary[k], D[k] = f_new[better], b_new[better], D_new[better]
             val[k] = v_new[better]
             moved = (better & ~last)[~last]
             for name in _FIELDS[1:]:
@@ -205,7 +212,7 @@ class _Refiner:
             damp[act[~better]] *= 0.25
             go = (better & ~last) | (~better & (damp[act] > 1e-3) & (size > NEWTON_RTOL * self.size))
             act = act[go]
-        return face, bary, val, on_b
+        return face, bary, val
 
 
 def surface_deviation(surface: "SplineSurface", points: np.ndarray, *, resolution: int = START_RESOLUTION,
@@ -234,7 +241,10 @@ def surface_deviation(surface: "SplineSurface", points: np.ndarray, *, resolutio
     for lo in range(0, n, chunk):
         s = slice(lo, min(lo + chunk, n))
         hit = loc(start[s])
-        face[s], bary[s], closest[s], on_b[s] = ref.refine(P[s], hit.face, hit.bary)
+        face[s], bary[s], closest[s] = ref.refine(P[s], hit.face, hit.bary)
+    # on the boundary curve: a barycentric coordinate ~0 opposite a boundary edge of the face
+    tri = surface.triangulation
+    on_b = ((bary <= BOUNDARY_BARY) & tri.boundary_edge_mask[tri.face_edges[face]]).any(1)
     return Deviation(distance=np.linalg.norm(closest - P, axis=1), face=face, bary=bary,
                      uv=ref.uv_of(face, bary), closest=closest, on_boundary=on_b)
 

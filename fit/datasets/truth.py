@@ -215,7 +215,7 @@ class TruthScan:
         w = np.clip(triangle_bary(C, self.clean[self.F[tri]]), 0.0, 1.0)
         st = np.einsum("nk,nkd->nd", w / w.sum(1, keepdims=True), self.params[self.F[tri]])
         for _ in range(steps):
-            st = st + newton_step(self.derivatives(st), P)
+            st = st + newton_step(self.derivatives(st), P)[0]
         return st
 
     def distance_to_truth(self, points: np.ndarray) -> np.ndarray:
