@@ -11,16 +11,8 @@ from trispline.spline.errors import InputError
 from trispline.spline.locate import Locator, OutsideDomainError, locate
 from trispline.spline.topology import Triangulation
 
-DOMAINS = {
-    "lone": lambda s: domains.lone_triangle(),
-    "delaunay": lambda s: domains.random_delaunay(40, seed=s),
-    "holes": lambda s: domains.random_delaunay(120, holes=2, seed=s),
-    "lshape": lambda s: domains.l_shape(40, seed=s),
-    "annulus": lambda s: domains.annulus(2, 12),
-    "slivers": lambda s: domains.slivers(8, 300.0),
-    "crisscross": lambda s: domains.grid(4, diagonal="crisscross"),
-    "fan": lambda s: domains.fan(3 + s % 10, radius_jitter=0.3, seed=s),
-}
+from triangulations import SMALL_DOMAINS as DOMAINS
+
 
 
 def _brute_inside(uv, faces, pts, tol=1e-9):
