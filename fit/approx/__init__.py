@@ -9,14 +9,16 @@
 
 Modules, in the order the approximation uses them: :mod:`.analysis` (robust local
 quadrics of the scan: residuals, noise, curvature), :mod:`.boundary` (which outline
-vertices stay), :mod:`.domain` (the sizing field, Triangle, the snap to scan
-vertices, :func:`insert`), :mod:`.locate` (point location that clamps points
-outside the domain to its boundary) and :mod:`.deviation` (distances both ways).
+vertices stay), :mod:`.domain` (the sizing field, the snap to scan vertices,
+:func:`insert`), :mod:`.cdt` (every call of Triangle), :mod:`.quality` (face angles, moving vertices off
+slivers), :mod:`.locate` (point location that clamps points outside the domain to
+its boundary) and :mod:`.deviation` (distances both ways).
 """
 from .analysis import ScanAnalysis, analyse_scan
 from .deviation import Deviation, mesh_deviation, summary, surface_deviation
-from .domain import CoarseDomain, DomainStats, coarse_domain, face_angles, insert
+from .domain import CoarseDomain, DomainStats, coarse_domain, insert
 from .locate import ClampedLocator, Located
+from .quality import face_angles
 
 __all__ = [
     "ScanAnalysis", "analyse_scan", "CoarseDomain", "DomainStats", "coarse_domain", "insert", "face_angles",

@@ -41,7 +41,7 @@ POINTS_PER_CELL = 40
 CURVATURE_POINTS = 200
 #: The curvature grid's cells grow until the noise's share of ``kappa`` is about this over the diagonal.
 CURVATURE_RESOLUTION = 0.5
-#: A cell with fewer vertices than this gets its values from the nearest valid cell.
+#: A cell with fewer vertices than this joins the nearest valid cell.
 MIN_CELL_POINTS = 12
 #: Smallest variance of a valid cell's local vertex coordinates in any direction (a full cell: 1/12).
 MIN_CELL_SPREAD = 0.02

@@ -1,7 +1,6 @@
 """Which scan vertices of each boundary loop the coarse domain keeps.
 
     kept, corners = thin_loop(loop, uv, V, spacing, scale, roughness)   # scan ids, in loop order
-    seeds = hole_seeds([uv[k] for k in kept_loops])             # (h, 2) one point inside each hole
 
 Along a loop (scan vertex ids, the domain on the left) the kept vertices are:
 
@@ -24,15 +23,12 @@ Along a loop (scan vertex ids, the domain on the left) the kept vertices are:
 from __future__ import annotations
 
 import numpy as np
-import triangle as tr
 from scipy import ndimage
-
-from trispline.spline.topology import triangle_areas
 
 from .analysis import SPIKE_LEVELS
 from .locate import segment_foot
 
-__all__ = ["thin_loop", "hole_seeds", "loop_segments", "CORNER_ANGLE", "SAGITTA"]
+__all__ = ["thin_loop", "CORNER_ANGLE", "SAGITTA"]
 
 #: Default turn (degrees) of the outline that makes a corner.
 CORNER_ANGLE = 35.0
@@ -40,7 +36,7 @@ CORNER_ANGLE = 35.0
 SAGITTA = 0.25
 #: Loop vertices per kept vertex at least, for the spaced ones to be nudged to a smoother neighbour.
 NUDGE_STEPS = 6
-#: Rounds of the sagitta refinement at most (each adds the worst vertex of every bad chord).
+#: Rounds of the sagitta refinement at most (each splits every bad chord at its run's middle).
 SAGITTA_ROUNDS = 64
 
 
@@ -173,27 +169,3 @@ def thin_loop(loop: np.ndarray, uv: np.ndarray, V: np.ndarray, spacing: np.ndarr
         keep[spike[free]] = alt[free]
         keep = np.unique(keep)
     return loop[keep], loop[corners]
-
-
-def loop_segments(sizes: list[int]) -> np.ndarray:
-    """``(s, 2)`` closing chords of consecutive loops of the given sizes, stacked in one vertex list."""
-    out, base = [], 0
-    for k in sizes:
-        i = np.arange(k)
-        out.append(base + np.column_stack([i, (i + 1) % k]))
-        base += k
-    return np.concatenate(out) if out else np.empty((0, 2), np.int64)
-
-
-def hole_seeds(loops_uv: list[np.ndarray]) -> np.ndarray:
-    """One point strictly inside each hole ``(h, 2)``: each clockwise loop ``(k, 2)`` triangulated on its own,
-    the centroid of its largest triangle."""
-    seeds = []
-    for p in loops_uv:
-        area = 0.5 * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1])
-        if area >= 0:  # counter-clockwise: the outer loop
-            continue
-        t = tr.triangulate({"vertices": p, "segments": loop_segments([p.shape[0]])}, "p")
-        T = t["vertices"][t["triangles"]]
-        seeds.append(T[np.argmax(np.abs(triangle_areas(T[:, 0], T[:, 1], T[:, 2])))].mean(0))
-    return np.array(seeds).reshape(-1, 2)

@@ -48,20 +48,19 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-import triangle as tr
 from scipy.spatial import cKDTree
 
 from trispline.spline.checks import as_array, check_ids
 from trispline.spline.errors import InputError, TriangulationError
-from trispline.spline.topology import Triangulation, signed_areas, triangle_areas
+from trispline.spline.topology import Triangulation
 
 from .analysis import SPIKE_LEVELS, ScanAnalysis, analyse_scan
-from .boundary import CORNER_ANGLE, hole_seeds, loop_segments, thin_loop
+from .boundary import CORNER_ANGLE, thin_loop
+from .cdt import constrained, hole_seeds, loop_segments, quality_mesh
 from .locate import ClampedLocator, Located
 from .quality import REPAIR_ROUNDS, better_vertices, face_angles
 
-__all__ = ["CoarseDomain", "DomainStats", "coarse_domain", "insert", "face_angles",
-           "ADAPT", "DEFAULT_FRACTION"]
+__all__ = ["CoarseDomain", "DomainStats", "coarse_domain", "insert", "ADAPT", "DEFAULT_FRACTION"]
 
 #: Default vertex budget as a fraction of the scan's vertices.
 DEFAULT_FRACTION = 0.02
@@ -200,22 +199,11 @@ def _thin_boundary(loops: tuple[np.ndarray, ...], uv: np.ndarray, sizing: _Sizin
 
 def _quality_mesh(P: np.ndarray, segments: np.ndarray, holes: np.ndarray, sizing: _Sizing, lam: float
                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Triangle's graded quality mesh inside the boundary ``P (b, 2)``: vertices ``(b + s, 2)`` (the
-    boundary's first, then the ``s`` added points) and triangles ``(t, 3)``."""
+    """Triangle's graded quality mesh inside the boundary ``P (b, 2)``; see :func:`~.cdt.quality_mesh`."""
     def area(pts: np.ndarray) -> np.ndarray:
         return AREA_FACTOR * np.sqrt(3.0) / 4.0 * sizing.spacing(lam, pts) ** 2
 
-    pslg = {"vertices": P, "segments": segments}
-    if holes.size:
-        pslg["holes"] = holes
-    t = tr.triangulate(pslg, f"pYq{QUALITY_ANGLE}a{float(area(P).max()):.17g}")
-    for _ in range(REFINE_ROUNDS):
-        T = t["vertices"][t["triangles"]]
-        target = area(T.mean(1))
-        if (np.abs(triangle_areas(T[:, 0], T[:, 1], T[:, 2])) <= target).all():
-            break
-        t = tr.triangulate({**t, "triangle_max_area": target}, f"rpYq{QUALITY_ANGLE}a")
-    return t["vertices"], np.asarray(t["triangles"], np.int64)
+    return quality_mesh(P, segments, holes, area, QUALITY_ANGLE, REFINE_ROUNDS)
 
 
 class _ScanIndex:
@@ -297,20 +285,13 @@ def _triangulate(uv: np.ndarray, boundary: list[np.ndarray], interior: np.ndarra
         ids = np.concatenate([*boundary, interior])
         P = uv[ids]
         segments = loop_segments([b.size for b in boundary])
-        holes = hole_seeds([uv[b] for b in boundary])
-        pslg = {"vertices": P, "segments": segments}
-        if holes.size:
-            pslg["holes"] = holes
-        t = tr.triangulate(pslg, "p")
-        if t["vertices"].shape[0] == P.shape[0]:
+        faces, extra = constrained(P, segments, hole_seeds([uv[b] for b in boundary]))
+        if extra.shape[0] == 0:
             break
-        boundary = _split_runs(boundary, loops, position, _crossed(P, segments, t["vertices"][P.shape[0]:]))
+        boundary = _split_runs(boundary, loops, position, _crossed(P, segments, extra))
     else:
         raise InputError("the coarse domain's boundary chords still cross after "
                          f"{CROSSING_ROUNDS} rounds of splitting; the uv map's outline may touch itself")
-    faces = np.asarray(t["triangles"], np.int64)
-    neg = signed_areas(P, faces) < 0
-    faces[neg] = faces[neg][:, [0, 2, 1]]
     used = np.zeros(ids.size, bool)
     used[faces.ravel()] = True
     remap = np.cumsum(used) - 1
