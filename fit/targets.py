@@ -18,7 +18,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from trispline.spline.tolerances import DEGENERATE_TANGENT_RTOL, TINY
-from trispline.spline.util.parallel import PARALLEL_MIN, Workers
+from trispline.spline.util.parallel import Workers
 
 #: Neighbourhoods are truncated to this many nearest vertices.
 MAX_NEIGHBOURS = 32
@@ -345,7 +345,7 @@ def local_rbf_fit(
     fits = _KernelFits(best=np.full(nv, np.inf), power=np.zeros(nv, np.int64), lam=np.zeros((nv, K, d)),
                        coef=np.zeros((nv, _NPOLY, d)))
     # a chunk is seconds of batched solves (numpy releases the GIL): a thread each from two chunks on
-    with Workers(nv * (PARALLEL_MIN // RBF_CHUNK)) as work:
+    with Workers(nv, parallel_min=RBF_CHUNK + 1) as work:
         work.map(lambda lo, hi: _fit_chunk(fits, np.arange(lo, hi), X, Y, valid, count + 1, kernels, nloo),
                  nv, RBF_CHUNK)
     loo = np.where(np.isfinite(fits.best), fits.best / np.sqrt(d * np.maximum(nloo, 1)), 0.0)
