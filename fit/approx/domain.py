@@ -10,8 +10,8 @@ Every coarse vertex is a scan vertex (``uv == scan_uv[vertices]``), so a spline
 corner point can interpolate its data vertex. How the vertices are chosen:
 
 1. :func:`~.analysis.analyse_scan` fits robust quadrics over a uv cell grid: each
-   vertex's residual (noise, spikes), the noise level and, on a coarser grid, the
-   curvature of the data.
+   vertex's residual and roughness (noise, spikes), the noise level and, on a
+   coarser grid, the curvature of the data.
 2. A sizing field: vertex density per 3D area proportional to
    ``(kappa + kappa_0) ** adapt`` with ``kappa_0`` the larger of the median
    curvature and one over the diagonal (denser where the data bends; the spacing
@@ -19,8 +19,8 @@ corner point can interpolate its data vertex. How the vertices are chosen:
    budget or to the given spacing, turned into a uv spacing by the cell's 3D/uv scale.
 3. The boundary loops are thinned (:mod:`.boundary`): corners kept, straight
    runs spaced, curved runs kept within a sagitta.
-4. Triangle (Shewchuk's, the ``triangle`` wheel) fills the interior with a
-   quality mesh: switches ``p`` (the boundary chords as segments, holes marked by
+4. Triangle (Shewchuk's, the ``triangle`` wheel; :mod:`.cdt`) fills the interior
+   with a quality mesh: switches ``p`` (the boundary chords as segments, holes marked by
    a seed inside each), ``Y`` (no point inserted on a boundary segment), ``q``
    (minimum angle :data:`QUALITY_ANGLE`), ``a`` with per-triangle areas from the
    sizing field, refined a few rounds (``r``); the density is recalibrated until the
@@ -28,8 +28,8 @@ corner point can interpolate its data vertex. How the vertices are chosen:
 5. Each point Triangle added is snapped to a scan vertex within
    :data:`SNAP_RADIUS` local spacings (less near the boundary), the one of smallest
    ``(distance / radius)^2 + (roughness / 3)^2`` (near, and smooth; never a
-   spike, :attr:`~.analysis.ScanAnalysis.roughness`), inside the coarse polygon and not much nearer to its
-   boundary than the point was (:data:`SNAP_CLEARANCE`).
+   spike: :attr:`~.analysis.ScanAnalysis.roughness`), inside the coarse polygon
+   and not much nearer to its boundary than the point was (:data:`SNAP_CLEARANCE`).
 6. The kept scan vertices are triangulated once more with ``p`` alone: a
    constrained Delaunay triangulation that inserts no point (checked: a chord
    crossing another would make Triangle insert one; its run then keeps one more
@@ -143,6 +143,7 @@ class CoarseDomain:
 
     @cached_property
     def locator(self) -> ClampedLocator:
+        """The :class:`ClampedLocator` of the coarse domain (cached)."""
         return ClampedLocator(self.uv, self.faces, triangulation=self.triangulation)
 
     def locate(self, points: np.ndarray) -> Located:
@@ -318,6 +319,8 @@ def _domain(scan_uv: np.ndarray, boundary: list[np.ndarray], interior: np.ndarra
                         n_corners=int(corners.size), n_holes=len(boundary) - 1, n_scan=int(scan_uv.shape[0]),
                         min_angle=float(ang.min()), mean_min_angle=float(ang.min(1).mean()),
                         noise=analysis.noise, spacing=float(spacing))
+    for a in (uv, faces, ids, corners, *boundary):
+        a.setflags(write=False)
     dom = CoarseDomain(uv=uv, faces=faces, vertices=ids, boundary=tuple(boundary), corners=corners,
                        loops=loops, scan_uv=scan_uv, stats=stats, analysis=analysis)
     dom.__dict__["triangulation"] = tri  # the cached property, already validated
@@ -364,6 +367,10 @@ def coarse_domain(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, n_vertices: i
         n_vertices = max(16, int(round(DEFAULT_FRACTION * n)))
     if n_vertices is not None and not (int(n_vertices) == n_vertices and 3 <= n_vertices):
         raise InputError(f"n_vertices must be an integer >= 3, got {n_vertices}")
+    if not (np.isfinite(adapt) and adapt >= 0):
+        raise InputError(f"adapt must be finite and >= 0, got {adapt}")
+    if not (0 < corner_angle < 180):
+        raise InputError(f"corner_angle must be in (0, 180) degrees, got {corner_angle}")
     loops = tuple(Triangulation(uv, F).boundary_loops)
     if not loops:
         raise InputError("the scan has no boundary loop; coarse domains are for open scans")

@@ -255,6 +255,8 @@ def test_analysis_finds_noise_and_curvature():
     (dict(spacing=0.0), "spacing"),
     (dict(spacing=np.nan), "spacing"),
     (dict(n_vertices=5), "below what the boundary needs"),
+    (dict(adapt=-1.0), "adapt"),
+    (dict(corner_angle=0.0), "corner_angle"),
 ])
 def test_bad_input(kwargs, match):
     scan = truth_scan("saddle", 2000, sigma=0.0)
