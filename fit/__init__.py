@@ -11,7 +11,7 @@ and ``import trispline.fit`` stay fast::
 """
 from __future__ import annotations
 
-import importlib
+from trispline.spline.util.lazy import lazy_exports
 
 _EXPORTS = {
     "fit_surface": "pipeline", "FitResult": "pipeline", "FitWeights": "weights", "FitError": "errors",
@@ -19,14 +19,4 @@ _EXPORTS = {
     "load_mesh": "io", "read_mesh": "io", "MeshData": "io",
 }
 
-__all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        return getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(list(globals()) + __all__)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

@@ -22,6 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
+from trispline.param import DEFAULT_METHOD
 from trispline.spline.checks import as_array
 from trispline.spline.continuity import continuity_report
 from trispline.spline.errors import InputError
@@ -36,6 +37,7 @@ from . import energy as en
 from .energy.data import DataPoints, as_data_points
 from .errors import FitError
 from .solve import FactorSolver, SparseCholesky, require_x64
+from .stages import ASSEMBLE, BUILD, FACTOR, FINISH, PARAMETERIZE, SOLVE
 from .weights import FitWeights
 
 __all__ = ["FitWeights", "FitResult", "FitError", "fit_surface", "DataPoints"]
@@ -106,7 +108,7 @@ def fit_surface(
     F: np.ndarray,
     *,
     uv: np.ndarray | None = None,
-    param: str = "lscm",
+    param: str = DEFAULT_METHOD,
     weights: FitWeights = FitWeights(),
     data_points: DataPoints | tuple | None = None,
     solver: optx.AbstractLeastSquaresSolver | None = None,
@@ -125,9 +127,9 @@ def fit_surface(
         field) and ``param`` is ignored; faces are reversed if all are clockwise.
     param : {"lscm", "harmonic", "uv"}
         Parameterization method when ``uv`` is None (see :mod:`trispline.param`). The
-        default ``lscm`` (free boundary) keeps corners of the outline undistorted; on the
-        shared real meshes it gave far smaller extreme curvature than ``harmonic``, whose
-        circle boundary squeezes corners (inspired_mesh: max |H| L 3 against 5107).
+        default (``trispline.param.DEFAULT_METHOD``, ``lscm``: free boundary) keeps corners of the
+        outline undistorted; on the shared real meshes it gave far smaller extreme curvature than
+        ``harmonic``, whose circle boundary squeezes corners (inspired_mesh: max |H| L 3 against 5107).
     weights : FitWeights
     data_points : DataPoints or (face (n,), bary (n, 3), xyz (n, 3)), optional
     solver : an optimistix least-squares solver; default Gauss--Newton with the
@@ -147,10 +149,10 @@ def fit_surface(
     clock = StageTimer(progress)
     V, F = _check_mesh(V, F)
     uv, faces, parameterization = _domain(V, F, uv, param)
-    clock("parameterize")
+    clock(PARAMETERIZE)
     tri = Triangulation(uv, faces)
     space = build_space(tri)
-    clock("build")
+    clock(BUILD)
     dp = None if data_points is None else as_data_points(data_points, tri.n_faces)
     # solve in normalised coordinates (optimistix's stopping tests are per element)
     centre = 0.5 * (V.min(0) + V.max(0))
@@ -158,13 +160,13 @@ def fit_surface(
     if dp is not None:
         dp = DataPoints(dp.face, dp.bary, (dp.xyz - centre) / size)
     prob = en.setup_problem((V - centre) / size, space, weights, dp)
-    clock("assemble")
+    clock(ASSEMBLE)
     factor = SparseCholesky(prob.H)
-    clock("factor")
+    clock(FACTOR)
     x, steps, ok = _solve(prob, factor, solver, max_steps)
-    clock("solve")
+    clock(SOLVE)
     result = _finish(V, space, prob, x, centre, size, steps, ok, weights, parameterization)
-    clock("finish")
+    clock(FINISH)
     if throw and not ok:
         raise FitError(
             f"the fit did not converge in {steps} Gauss-Newton steps (max_steps={max_steps}); "

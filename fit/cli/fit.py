@@ -21,13 +21,13 @@ import numpy as np
 from trispline.param import DEFAULT_METHOD, METHODS
 
 from ..errors import CommandFailed, FitError, UsageError
+from ..stages import FIT_STAGES
 from ..weights import FitWeights
 from .common import EXIT_OK, UI, add_common, check_output, distinct, fmt, nonneg_float, positive_int
 
 __all__ = ["WEIGHT_FIELDS", "FIT_STAGES", "EXAMPLE_FACES", "add_parsers", "cmd_fit", "cmd_demo"]
 
 #: Stages reported by ``fit_surface(progress=...)``, in order (for the progress bar).
-FIT_STAGES = ("parameterize", "build", "assemble", "factor", "solve", "finish")
 #: Default faces of the built-in example scan.
 EXAMPLE_FACES = 800
 #: One flag per :class:`~trispline.fit.weights.FitWeights` field: ``(name, type of its default)``

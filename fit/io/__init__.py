@@ -9,7 +9,7 @@ pictures, :mod:`.formats` names the output formats. The modules load on first us
 """
 from __future__ import annotations
 
-import importlib
+from trispline.spline.util.lazy import lazy_exports
 
 _EXPORTS = {
     "SUPPORTED": "mesh", "MeshData": "mesh", "load_mesh": "mesh", "read_mesh": "mesh",
@@ -18,14 +18,4 @@ _EXPORTS = {
     "export_control_net": "export", "export_mesh": "export", "export_surface": "export",
 }
 
-__all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        return getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(list(globals()) + __all__)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)
