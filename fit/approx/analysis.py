@@ -29,7 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy import ndimage
 
-from trispline.param.validate import face_areas_3d
+from trispline.param import face_areas_3d
 from trispline.spline.checks import as_array
 from trispline.spline.topology import signed_areas
 
