@@ -95,7 +95,7 @@ class Workers:
 
 
 _blas_lock = threading.Lock()
-_blas_state: dict = {"controller": None, "limiter": None, "users": 0}
+_blas_state: dict = {"limiter": None, "users": 0}
 
 
 @contextlib.contextmanager
@@ -114,9 +114,9 @@ def single_threaded_blas() -> Iterator[None]:
         return
     with _blas_lock:
         if _blas_state["users"] == 0:
-            if _blas_state["controller"] is None:
-                _blas_state["controller"] = ThreadpoolController()
-            _blas_state["limiter"] = _blas_state["controller"].limit(limits=1, user_api="blas")
+            # a fresh controller (~1 ms) sees every BLAS loaded so far: one cached from an
+            # earlier call would miss libraries loaded since (MKL through pypardiso, say)
+            _blas_state["limiter"] = ThreadpoolController().limit(limits=1, user_api="blas")
         _blas_state["users"] += 1
     try:
         yield

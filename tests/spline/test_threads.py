@@ -1,6 +1,9 @@
 """Helpers that split large arrays over threads: same results as the one-call numpy/scipy forms."""
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -144,3 +147,18 @@ def test_gathers_equal_fancy_indexing():
     np.testing.assert_array_equal(_gather.at(F, i.reshape(5, 5), 2), F[i.reshape(5, 5), 2])
     with pytest.raises(IndexError):
         _gather.rows(F, np.array([40]))
+
+
+def test_serial_blas_also_holds_a_blas_loaded_after_its_first_use():
+    """MKL (through pypardiso) loads after the first tessellation in a fit: it must be held too."""
+    pytest.importorskip("pypardiso")
+    code = (
+        "from threadpoolctl import threadpool_info\n"
+        "from trispline.spline.util.parallel import single_threaded_blas\n"
+        "with single_threaded_blas(): pass\n"
+        "import pypardiso\n"
+        "with single_threaded_blas():\n"
+        "    print(max(i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas'))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True)
+    assert out.stdout.split() == ["1"]
