@@ -10,6 +10,22 @@ from __future__ import annotations
 #: O(1) coefficients) count as zero. Measured on perturbed alternating and criss-cross
 #: grids: with 1e-13 the C1 residual stays below 2e-14 (relative) for every perturbation.
 SINGULAR_TOL = 1e-13
+#: An interior valence-4 vertex closer than this times its mean edge length to the crossing
+#: of its two diagonals (the lines through opposite neighbours) is moved onto the crossing
+#: and counted singular (issue 14). Small enough that the move stays below 1e-12 of the
+#: domain on a height field's ``uv = (x, y)``; large enough that every vertex left alone is
+#: clearly regular (pivot >= ~3e-14 against <= ~1e-16 x coordinate / edge length at a
+#: snapped one), so the dimension of the space is never a coin toss.
+SNAP_TOL = 1e-12
+#: Vertex systems whose smallest pivot is below this are eliminated again in double-double
+#: arithmetic. In double their rows are off by ~5e-16 / pivot (measured on perturbed
+#: criss-cross grids); 1e-2 keeps that below ~5e-14 and costs nothing on meshes without
+#: near-collinear edge pairs (the smallest pivot of 1M-face Delaunay meshes is ~0.06).
+EXACT_PIVOT_TOL = 1e-2
+#: Pivots of the double-double pass at or below this count as zero: far above its rounding
+#: (~1e-31 on the O(1) equations), far below any pivot double coordinates can make off a
+#: crossing (>= ~1e-18).
+EXACT_SINGULAR_TOL = 1e-26
 #: Pivot preference of inner points relative to middle edge points in the propagation.
 INNER_PIVOT_WEIGHT = 0.2
 #: uv triangles with area below this times the mean |area| are degenerate.
@@ -36,5 +52,9 @@ CONVERGED_GRAD_RTOL = 1e-6
 DEGENERATE_TANGENT_RTOL = 1e-12
 #: Default relative tolerance of ``trispline check`` (algebraic identities hold to ~1e-14).
 CHECK_TOLERANCE = 1e-9
+#: Exact CAD export: the B-rep tolerance of vertices, edges and faces, in the surface's units
+#: (Open CASCADE's ``Precision::Confusion``). The geometry is exact; this is what CAD tools
+#: read as the model's tolerance.
+CAD_TOLERANCE = 1e-7
 #: Zebra pictures: normals with |N . W| below this (almost parallel to the light panel) stay grey.
 ZEBRA_MIN_COS = 1e-3

@@ -3,8 +3,9 @@
     from trispline.fit.io import read_mesh, export_surface
 
 :mod:`.mesh` reads meshes, :mod:`.export` writes surfaces, meshes, control nets and
-pictures, :mod:`.formats` names the output formats. The modules load on first use
-(trimesh and libigl only when a mesh is read or written), so that
+pictures, :mod:`.cad` the exact STEP, IGES and 3dm files, :mod:`.formats` names the output
+formats. The modules load on first use (trimesh and libigl only when a mesh is read or
+written, Open CASCADE only for CAD), so that
 :mod:`trispline.fit.render` can check its PNG names through :mod:`.formats` cheaply.
 """
 from __future__ import annotations
@@ -14,7 +15,8 @@ from trispline.spline.util.lazy import lazy_exports
 _EXPORTS = {
     "SUPPORTED": "mesh", "MeshData": "mesh", "load_mesh": "mesh", "read_mesh": "mesh",
     "EXPORT_FORMATS": "formats", "IMAGE_FORMATS": "formats", "MESH_FORMATS": "formats",
-    "SURFACE_FORMATS": "formats", "check_export_path": "formats", "ExportFormatError": "formats",
+    "SURFACE_FORMATS": "formats", "CAD_FORMATS": "formats", "check_export_path": "formats",
+    "ExportFormatError": "formats", "export_cad": "cad",
     "export_control_net": "export", "export_mesh": "export", "export_surface": "export",
 }
 

@@ -25,7 +25,7 @@ millimetres). Open CASCADE and rhino3dm come with the optional extra ``trispline
 from __future__ import annotations
 
 import os
-from contextlib import contextmanager, nullcontext
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterator
@@ -34,12 +34,13 @@ import numpy as np
 
 from trispline.spline.index import DEGREE
 from trispline.spline.tensor import TensorNet, tensor_net
-from trispline.spline.util.atomic import AtomicOutputs
+from trispline.spline.tolerances import CAD_TOLERANCE
+from trispline.spline.util.atomic import AtomicOutputs, write_with
 
 from trispline.spline.errors import InputError
 
 from ..errors import CommandFailed, ExportFormatError
-from .export import check_export_path
+from .formats import CAD_FORMATS, check_export_path
 
 if TYPE_CHECKING:  # pragma: no cover
     from trispline.spline.surface import SplineSurface
@@ -49,12 +50,6 @@ __all__ = [
     "read_cad",
 ]
 
-#: Exact CAD formats: STEP AP214, IGES (both through Open CASCADE), Rhino 3dm (rhino3dm).
-CAD_FORMATS = (".step", ".stp", ".iges", ".igs", ".3dm")
-#: Default tolerance of the B-rep's vertices, edges and faces, in the surface's units
-#: (Open CASCADE's ``Precision::Confusion``). The geometry is exact; this is what CAD
-#: tools read as the model's tolerance.
-CAD_TOLERANCE = 1e-7
 _N = DEGREE + 1  # control points per row of a bi-quintic patch
 #: IGES reals: 13 significant digits, the precision of Open CASCADE's STEP writer.
 _IGES_REAL = "%.12E"
@@ -399,9 +394,7 @@ def export_cad(surface: "SplineSurface", path: str | os.PathLike, *, merge: bool
         if not ok:
             raise CommandFailed(f"cannot write {path}: the {what} writer ({module.split('.')[0]}) failed")
 
-    with AtomicOutputs() if outputs is None else nullcontext(outputs) as out:  # a group commits on its own
-        write(out.path(path))
-    return Path(path)
+    return write_with(path, write, outputs)
 
 
 # ------------------------------------------------------------------ reading back

@@ -26,10 +26,10 @@ import numpy as np
 
 from trispline.spline.index import DEGREE, EXPONENTS, NCTRL, lattice_triangles
 from trispline.spline.tessellate import Tessellation
-from trispline.spline.util.atomic import AtomicOutputs
+from trispline.spline.util.atomic import AtomicOutputs, write_with
 
 from ..errors import ExportFormatError
-from .formats import EXPORT_FORMATS, IMAGE_FORMATS, MESH_FORMATS, SURFACE_FORMATS, check_export_path
+from .formats import CAD_FORMATS, EXPORT_FORMATS, IMAGE_FORMATS, MESH_FORMATS, SURFACE_FORMATS, check_export_path
 
 if TYPE_CHECKING:  # pragma: no cover
     import trimesh
@@ -155,15 +155,6 @@ def _write_obj_lines(points: np.ndarray, segments: np.ndarray, tmp: Path) -> Non
         np.savetxt(fh, segments + 1, fmt="l %d %d")
 
 
-def _run(path: str | os.PathLike, outputs: AtomicOutputs | None, write) -> Path:
-    if outputs is not None:
-        write(outputs.path(path))
-    else:
-        with AtomicOutputs() as out:
-            write(out.path(path))
-    return Path(path)
-
-
 def export_mesh(
     V: np.ndarray, F: np.ndarray, path: str | os.PathLike, *, normals: np.ndarray | None = None,
     outputs: AtomicOutputs | None = None,
@@ -172,12 +163,12 @@ def export_mesh(
     to OBJ/PLY/STL/GLB atomically, vertex order kept."""
     suffix = check_export_path(path, MESH_FORMATS)
     mesh = _trimesh(np.asarray(V, float), np.asarray(F, np.int64), normals)
-    return _run(path, outputs, lambda tmp: _write_mesh(mesh, tmp, suffix, normals is not None))
+    return write_with(path, lambda tmp: _write_mesh(mesh, tmp, suffix, normals is not None), outputs)
 
 
 def export_surface(
     surface: "SplineSurface", path: str | os.PathLike, *, resolution: int = 8,
-    outputs: AtomicOutputs | None = None, **image_options: Any,
+    outputs: AtomicOutputs | None = None, merge: bool = False, **image_options: Any,
 ) -> Path:
     """Write ``surface`` to ``path``; the format follows the suffix.
 
@@ -185,17 +176,23 @@ def export_surface(
     edge) with analytic normals; ``.npz .json``: the surface file; ``.png``: a
     picture drawn by :func:`trispline.fit.render.draw` at ``resolution`` samples
     per patch edge, shaded and seen along the surface's mean normal unless
-    ``image_options`` (``mode``, ``view``, ``size``, ``title``, ...) say otherwise.
+    ``image_options`` (``mode``, ``view``, ``size``, ``title``, ...) say otherwise;
+    ``.step .stp .iges .igs .3dm``: the exact B-spline faces of :func:`.cad.export_cad`
+    (``merge`` joins two of a triangle's three faces; needs the extra ``trispline[cad]``).
     With ``outputs`` the file joins that group (committed by the caller), otherwise
     it is written atomically on its own.
     """
     suffix = check_export_path(path)
     if suffix in MESH_FORMATS:
         mesh = surface_mesh(surface, resolution)
-        return _run(path, outputs, lambda tmp: _write_mesh(mesh, tmp, suffix, True))
+        return write_with(path, lambda tmp: _write_mesh(mesh, tmp, suffix, True), outputs)
     if suffix in SURFACE_FORMATS:
-        return _run(path, outputs, lambda tmp: surface.save(tmp))
-    return _run(path, outputs, lambda tmp: _write_picture(surface, tmp, resolution, image_options))
+        return write_with(path, lambda tmp: surface.save(tmp), outputs)
+    if suffix in CAD_FORMATS:
+        from .cad import export_cad
+
+        return export_cad(surface, path, merge=merge, outputs=outputs)
+    return write_with(path, lambda tmp: _write_picture(surface, tmp, resolution, image_options), outputs)
 
 
 def export_control_net(
@@ -207,9 +204,9 @@ def export_control_net(
     suffix = check_export_path(path, (".obj",) if lines else MESH_FORMATS)
     if lines:
         points, _, segments = control_net(surface)
-        return _run(path, outputs, lambda tmp: _write_obj_lines(points, segments, tmp))
+        return write_with(path, lambda tmp: _write_obj_lines(points, segments, tmp), outputs)
     mesh = control_net_mesh(surface)
-    return _run(path, outputs, lambda tmp: _write_mesh(mesh, tmp, suffix, False))
+    return write_with(path, lambda tmp: _write_mesh(mesh, tmp, suffix, False), outputs)
 
 
 def _write_picture(surface: "SplineSurface", tmp: Path, resolution: int, options: dict[str, Any]) -> None:

@@ -13,15 +13,17 @@ from pathlib import Path
 
 from ..errors import ExportFormatError
 
-__all__ = ["MESH_FORMATS", "SURFACE_FORMATS", "IMAGE_FORMATS", "EXPORT_FORMATS", "check_export_path"]
+__all__ = ["MESH_FORMATS", "SURFACE_FORMATS", "IMAGE_FORMATS", "CAD_FORMATS", "EXPORT_FORMATS", "check_export_path"]
 
 #: Tessellated-mesh formats (through trimesh).
 MESH_FORMATS = (".obj", ".ply", ".stl", ".glb")
-#: Surface file formats (DESIGN.md §6).
+#: Surface file formats (docs/design.md §6).
 SURFACE_FORMATS = (".npz", ".json")
 #: Pictures (:mod:`trispline.fit.render`).
 IMAGE_FORMATS = (".png",)
-EXPORT_FORMATS = MESH_FORMATS + SURFACE_FORMATS + IMAGE_FORMATS
+#: Exact CAD formats (:mod:`.cad`: STEP and IGES through Open CASCADE, 3dm through rhino3dm).
+CAD_FORMATS = (".step", ".stp", ".iges", ".igs", ".3dm")
+EXPORT_FORMATS = MESH_FORMATS + SURFACE_FORMATS + IMAGE_FORMATS + CAD_FORMATS
 
 
 def check_export_path(path: str | os.PathLike, formats: tuple[str, ...] = EXPORT_FORMATS) -> str:

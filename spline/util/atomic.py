@@ -21,11 +21,11 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 from types import TracebackType
-from typing import Iterator
+from typing import Callable, Iterator
 
 from trispline.spline.errors import OutputError
 
-__all__ = ["OutputError", "AtomicOutputs", "atomic_path", "write_bytes", "write_text"]
+__all__ = ["OutputError", "AtomicOutputs", "atomic_path", "write_with", "write_bytes", "write_text"]
 
 
 def _temp_for(path: Path) -> Path:
@@ -125,6 +125,18 @@ def atomic_path(target: str | os.PathLike) -> Iterator[Path]:
     """Context manager yielding a temporary path that replaces ``target`` on success."""
     with AtomicOutputs() as out:
         yield out.path(target)
+
+
+def write_with(target: str | os.PathLike, write: Callable[[Path], None],
+               outputs: AtomicOutputs | None = None) -> Path:
+    """Run ``write(tmp)`` for ``target``: inside the group ``outputs`` (committed by its owner),
+    or atomically on its own when ``outputs`` is None. Returns ``Path(target)``."""
+    if outputs is not None:
+        write(outputs.path(target))
+    else:
+        with atomic_path(target) as tmp:
+            write(tmp)
+    return Path(target)
 
 
 def write_bytes(target: str | os.PathLike, data: bytes) -> Path:

@@ -7,6 +7,7 @@ boundary loops (holes included).
 """
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 
@@ -19,7 +20,7 @@ from trispline.fit.io import cad
 from trispline.spline.errors import InputError
 from trispline.spline.tensor import quad_bary
 from trispline.spline.util.atomic import AtomicOutputs
-from test_export import random_c1_surface
+from trispline.spline.testing import random_c1_surface
 
 pytest.importorskip("OCP")
 pytest.importorskip("rhino3dm")
@@ -283,3 +284,35 @@ def test_joins_an_output_group(tmp_path, surface):
         cad.export_cad(surface, target, outputs=out)
         assert not target.exists()
     assert target.is_file() and target.stat().st_size > 0
+
+
+# ------------------------------------------------------------------ command line
+def test_cli_export_step_reads_back(tmp_path, surface, diagonal, capsys):
+    """``trispline export s.npz -o s.step`` writes the exact shell (merge: 2 faces per patch)."""
+    from trispline.fit.cli import main
+
+    src = tmp_path / "s.npz"
+    surface.save(src)
+    for merge, per_patch in ((False, 3), (True, 2)):
+        out = tmp_path / f"s{int(merge)}.step"
+        assert main(["export", str(src), "-o", str(out), "--json", *(["--merge"] if merge else [])]) == 0
+        rep = json.loads(capsys.readouterr().out)
+        assert rep["cad_faces"] == per_patch * surface.n_faces and rep["outputs"] == [str(out)]
+        _check_shell(cad.read_cad(out), surface, per_patch * surface.n_faces, diagonal)
+
+
+def test_cli_merge_needs_a_cad_output(tmp_path, surface, capsys):
+    from trispline.fit.cli import main
+
+    src = tmp_path / "s.npz"
+    surface.save(src)
+    assert main(["export", str(src), "-o", str(tmp_path / "s.obj"), "--merge"]) == 2
+    assert "--merge is for CAD outputs" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.npz"]
+
+
+def test_export_surface_dispatches_cad(tmp_path, surface):
+    from trispline.fit.io import export_surface
+
+    path = export_surface(surface, tmp_path / "s.igs")
+    assert len(_all(cad.read_cad(path), TopAbs_FACE, Face)) == 3 * surface.n_faces

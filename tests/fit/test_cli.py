@@ -26,8 +26,7 @@ from trispline.fit.datasets.synthetic import synthetic_scan
 from trispline.spline.index import CORNER
 from trispline.spline.surface import SplineSurface
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_export import random_c1_surface  # noqa: E402
+from trispline.spline.testing import random_c1_surface
 
 
 def run(*args: str | os.PathLike, cwd: Path | None = None, timeout: float = 300) -> subprocess.CompletedProcess:

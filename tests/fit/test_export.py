@@ -18,27 +18,11 @@ from trispline.fit.datasets.synthetic import HOLE_RADIUS, synthetic_scan
 from trispline.param import validate_mesh
 from trispline.spline.index import CORNER, DEGREE, EXPONENTS, lattice_triangles
 from trispline.spline.continuity import continuity_report
-from trispline.spline.testing.domains import random_delaunay
 from trispline.spline.errors import InputError
-from trispline.spline.polynomial import polynomial_control_net
-from trispline.spline.propagation import build_space
 from trispline.spline.surface import SplineSurface
+from trispline.spline.testing import random_c1_surface
 from trispline.spline.tessellate import tessellation_counts
 
-
-def random_c1_surface(n: int = 40, holes: int = 1, seed: int = 0, wiggle: float = 2e-3) -> SplineSurface:
-    """An exactly C1 surface over a random Delaunay domain with holes: a smooth
-    polynomial graph's net, its free points then perturbed by ``wiggle`` (still C1)."""
-    uv, faces = random_delaunay(n, holes=holes, seed=seed)
-    space = build_space(uv, faces)
-    ctrl0 = polynomial_control_net(
-        uv, faces, lambda p: np.column_stack([p[:, 0], p[:, 1], 0.3 * p[:, 0] ** 2 - 0.2 * p[:, 0] * p[:, 1]
-                                              + 0.1 * p[:, 1] ** 3]))
-    points = np.zeros((space.n_points, 3))
-    points[space.point_index] = ctrl0
-    rng = np.random.default_rng(seed)
-    free = space.free_from_points(points) + wiggle * rng.normal(size=(space.n_free, 3))
-    return SplineSurface(uv, faces, space.control_points(free))
 
 
 @pytest.fixture(scope="module")

@@ -22,11 +22,11 @@ from trispline.fit.render.backends import pyvista_unusable
 from trispline.spline.index import index_of
 from trispline.spline.patches import edge_samples
 from trispline.spline.continuity import continuity_report
-from trispline.spline.testing.domains import grid, random_delaunay
+from trispline.spline.testing.domains import grid
 from trispline.spline.errors import InputError
 from trispline.spline.polynomial import polynomial_control_net
-from trispline.spline.propagation import build_space
 from trispline.spline.surface import SplineSurface
+from trispline.spline import testing
 
 HAVE_PYVISTA = pyvista_unusable() is None
 needs_pyvista = pytest.mark.skipif(not HAVE_PYVISTA, reason="pyvista/vtk not importable")
@@ -42,16 +42,9 @@ def graph_surface(func, n: int = 4, diagonal: str = "regular", shift: float = 0.
     return SplineSurface(uv, faces, ctrl)
 
 
-def random_c1_surface(n: int = 40, seed: int = 0, wiggle: float = 3e-3) -> SplineSurface:
+def random_c1_surface(n: int = 40, seed: int = 0) -> SplineSurface:
     """Exactly C1, not polynomial: a gentle graph's net with its free points perturbed."""
-    uv, faces = random_delaunay(n, holes=1, seed=seed)
-    space = build_space(uv, faces)
-    ctrl0 = polynomial_control_net(uv, faces, lambda p: np.column_stack(
-        [p[:, 0], p[:, 1], 0.2 * p[:, 0] ** 2 - 0.1 * p[:, 0] * p[:, 1] + 0.05 * p[:, 1] ** 3]))
-    points = np.zeros((space.n_points, 3))
-    points[space.point_index] = ctrl0
-    free = space.free_from_points(points) + wiggle * np.random.default_rng(seed).normal(size=(space.n_free, 3))
-    return SplineSurface(uv, faces, space.control_points(free))
+    return testing.random_c1_surface(n, holes=1, seed=seed, wiggle=3e-3, graph=(0.2, -0.1, 0.05))
 
 
 def off_edge_point(surface: SplineSurface, edge: int) -> tuple[int, int]:
