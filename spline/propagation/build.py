@@ -1,8 +1,10 @@
 """``build_space``: the propagation map ``M`` as a short sequence of stages (DESIGN.md §3).
 
+    snap          nearly singular vertices moved onto the crossing of their two lines
     diamonds      coefficients of every interior edge's C1 relation; weak equations per vertex
     classify      which flips are free; the fast-path middle rows (two inner points and a star)
     elimination   the vertex systems with weak equations, reduced by weighted complete pivoting
+                  (the nearly singular ones again in double-double)
     free_points   every free point gets its free id (corners, frames, then the others by point id)
     write_M       the CSR arrays, class by class
     finish        the free variables' kinds and the SplineSpace
@@ -17,13 +19,14 @@ from functools import partial
 import numpy as np
 
 from ..net import NetLayout, layout_of, point_index
-from ..tolerances import INNER_PIVOT_WEIGHT, SINGULAR_TOL
+from ..tolerances import EXACT_PIVOT_TOL, INNER_PIVOT_WEIGHT, SINGULAR_TOL, SNAP_TOL
 from ..topology import Triangulation
 from ..util import memory as _memory, parallel as _parallel
 from ..util.timer import StageTimer
 from .assembly import assemble
 from .diamonds import diamond_ids, diamonds, flip_pair, frame_scales
 from .elimination import Eliminated, vertex_systems
+from .snap import Snap, snap
 from .space import KIND_CORNER, KIND_FLIP, KIND_FRAME, KIND_INNER, KIND_MID, SplineSpace
 
 
@@ -33,6 +36,8 @@ def build_space(
     *,
     singular_tol: float = SINGULAR_TOL,
     inner_weight: float = INNER_PIVOT_WEIGHT,
+    snap_tol: float = SNAP_TOL,
+    exact_tol: float = EXACT_PIVOT_TOL,
 ) -> SplineSpace:
     """Build the free-to-control map of the C1 quintic spline space.
 
@@ -40,12 +45,20 @@ def build_space(
     ----------
     uv : (V, 2) float or a :class:`Triangulation`
     faces : (F, 3) int, counter-clockwise in uv (omit when passing a Triangulation)
-    singular_tol : pivots below this count as zero (:data:`~trispline.spline.tolerances.SINGULAR_TOL`)
+    singular_tol : pivots of the double elimination below this count as zero
+        (:data:`~trispline.spline.tolerances.SINGULAR_TOL`)
     inner_weight : pivot preference of inner points relative to middle points
+    snap_tol : interior valence-4 vertices within this times their mean edge length of the
+        crossing of their two lines are moved onto it and are singular
+        (:data:`~trispline.spline.tolerances.SNAP_TOL`; 0 moves none)
+    exact_tol : vertex systems with a smaller pivot are eliminated again in double-double
+        (:data:`~trispline.spline.tolerances.EXACT_PIVOT_TOL`)
 
     Returns
     -------
     SplineSpace
+        Its ``tri`` is the triangulation actually used: the input, or a copy with the
+        snapped vertices moved (``stats["snapped_vertices"]``, ``stats["max_move"]``).
 
     Notes
     -----
@@ -59,14 +72,16 @@ def build_space(
     clock("triangulation")
     lay = layout_of(tri)
     with _parallel.Workers(max(tri.interior_edges.size, tri.n_faces)) as work:
-        pidx_job = work.submit(point_index, tri)  # independent of everything below
-        frame_scale = frame_scales(tri)
+        pidx_job = work.submit(point_index, tri)  # topology only (the snapped copy has the same): runs alongside
+        tri, frame_scale, snapped = _snapped(tri, snap_tol)
+        clock("snap")
         c2, n_weak = diamonds(work, tri, inner_weight, singular_tol)
         bad_v = n_weak > 0
         clock("diamonds")
         is_free, length = _classify(work, tri, lay, c2, bad_v)
         clock("classify")
-        elim = vertex_systems(work, tri, lay, c2, frame_scale, n_weak, singular_tol, inner_weight)
+        elim = vertex_systems(work, tri, lay, c2, frame_scale, n_weak, snapped.singular, singular_tol, inner_weight,
+                              exact_tol)
         clock("elimination")
         free_pts, free_of_point = _free_points(tri, lay, bad_v, is_free, elim)
         n_free = 3 * tri.n_vertices + free_pts.size
@@ -74,9 +89,21 @@ def build_space(
         M, max_coef = assemble(work, tri, lay, c2, bad_v, frame_scale, free_pts, free_of_point, n_free, length, elim)
         clock("write_M")
         pidx = pidx_job.result()
-    space = _space(tri, lay, M, pidx, frame_scale, free_pts, elim, max(max_coef, elim.max_coef), clock.timings)
+    space = _space(tri, lay, M, pidx, frame_scale, free_pts, elim, snapped, max(max_coef, elim.max_coef),
+                   clock.timings)
     clock("finish")
     return space
+
+
+def _snapped(tri: Triangulation, snap_tol: float) -> tuple[Triangulation, np.ndarray, Snap]:
+    """The triangulation to use (``tri`` or its snapped copy), its frame scales ``(V,)`` and the :class:`Snap`."""
+    frame_scale = frame_scales(tri)
+    snapped = snap(tri, frame_scale, snap_tol)
+    if not snapped.moved.size:
+        return tri, frame_scale, snapped
+    tri = snapped.tri
+    _ = tri.edges, tri.edge_faces, tri.face_edges
+    return tri, frame_scales(tri), snapped
 
 
 def _classify(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, c2: np.ndarray, bad_v: np.ndarray
@@ -132,7 +159,7 @@ def _free_points(tri: Triangulation, lay: NetLayout, bad_v: np.ndarray, is_free:
 
 
 def _space(tri: Triangulation, lay: NetLayout, M, pidx: np.ndarray, frame_scale: np.ndarray, free_pts: np.ndarray,
-           elim: Eliminated, max_coef: float, timings: dict[str, float]) -> SplineSpace:
+           elim: Eliminated, snapped: Snap, max_coef: float, timings: dict[str, float]) -> SplineSpace:
     """The :class:`SplineSpace`: what each free variable is, the singular vertices, the statistics."""
     nv, n_free = tri.n_vertices, int(M.shape[1])
     free_kind = np.empty(n_free, np.int8)
@@ -145,7 +172,8 @@ def _space(tri: Triangulation, lay: NetLayout, M, pidx: np.ndarray, frame_scale:
     sing = np.sort(np.concatenate(elim.singular)) if elim.singular else np.zeros(0, np.int64)
     stats = dict(max_coefficient=max(float(M.data.max(initial=0.0)), -float(M.data.min(initial=0.0))),
                  max_elimination_coefficient=max_coef, nnz=int(M.nnz), eliminated_vertices=elim.n_systems,
-                 timings=timings)
+                 exact_vertices=elim.n_exact, snapped_vertices=int(snapped.moved.size), max_move=snapped.max_move,
+                 max_relative_move=snapped.max_relative_move, timings=timings)
     return SplineSpace(tri=tri, layout=lay, M=M, point_index=pidx, corner_free=np.arange(nv), frame_free=frame_free,
                        frame_scale=frame_scale, free_kind=free_kind, free_point=free_point,
                        singular_vertices=sing, stats=stats)

@@ -4,6 +4,8 @@ A diamond is the pair of faces ``A = (p, r, s)``, ``B = (q, s, r)`` of an interi
 edge ``(r, s)``; its C1 relation ``X_q = λ X_p + μ X_r + ν X_s`` (DESIGN.md §2) gives
 the ``i = 1`` equation at each end of the edge and the flips' ``i = 2`` condition.
 Every star point is affine in its vertex's frame (:func:`star_weights`).
+:func:`diamond_coefficients` and :func:`star_weights` take float64 or double-double
+(:class:`~trispline.spline.util.ddouble.DD`) coordinates: one formula for both precisions.
 """
 from __future__ import annotations
 
@@ -13,10 +15,12 @@ import numpy as np
 
 from ..net import NetLayout
 from ..topology import Triangulation, triangle_areas
-from ..util import gather as _gather, memory as _memory, parallel as _parallel
+from ..util import ddouble, gather as _gather, memory as _memory, parallel as _parallel
+from ..util.ddouble import DD
 
 
-def diamond_coefficients(p: np.ndarray, q: np.ndarray, r: np.ndarray, s: np.ndarray) -> np.ndarray:
+def diamond_coefficients(p: np.ndarray | DD, q: np.ndarray | DD, r: np.ndarray | DD, s: np.ndarray | DD
+                         ) -> np.ndarray | DD:
     """Normalised coefficients of the C1 relation of a diamond; ``p, q, r, s``: ``(n, 2)``.
 
     With ``q = λ p + μ r + ν s`` the condition ``X_q - λ X_p - μ X_r - ν X_s = 0``
@@ -31,8 +35,8 @@ def diamond_coefficients(p: np.ndarray, q: np.ndarray, r: np.ndarray, s: np.ndar
     lam = triangle_areas(q, r, s) / T
     mu = triangle_areas(p, q, s) / T
     nu = triangle_areas(p, r, q) / T
-    scale = np.abs(T) / (np.abs(T) + np.abs(triangle_areas(q, s, r)))
-    return np.column_stack([np.ones_like(lam), -lam, -mu, -nu]) * scale[:, None]
+    scale = abs(T) / (abs(T) + abs(triangle_areas(q, s, r)))
+    return ddouble.stack([scale, -lam * scale, -mu * scale, -nu * scale], axis=1)
 
 
 def diamond_ids(tri: Triangulation, e: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -44,6 +48,14 @@ def diamond_ids(tri: Triangulation, e: np.ndarray) -> tuple[np.ndarray, ...]:
     """
     ab, ef, eo = (_gather.rows(table, e) for table in (tri.edges, tri.edge_faces, tri.edge_opposite))
     return ab[:, 0], ab[:, 1], ef[:, 0], ef[:, 1], eo[:, 0], eo[:, 1]
+
+
+def edge_coefficients(tri: Triangulation, ids: tuple[np.ndarray, ...], uv: np.ndarray | DD) -> np.ndarray | DD:
+    """:func:`diamond_coefficients` ``(n, 4)`` of the interior edges whose :func:`diamond_ids` are ``ids``,
+    from the coordinates ``uv: (V, 2)`` (``tri.uv``, or its double-double copy)."""
+    a, b, f0, f1, k0, k1 = ids
+    p, q = _gather.at(tri.faces, f0, k0), _gather.at(tri.faces, f1, k1)
+    return diamond_coefficients(*(ddouble.rows(uv, v) for v in (p, q, a, b)))
 
 
 def weak(c_mid: np.ndarray, c_q: np.ndarray, c_p: np.ndarray, inner_weight: float, tol: float) -> np.ndarray:
@@ -66,18 +78,15 @@ def flip_pair(lay: NetLayout, f0: np.ndarray, k0: np.ndarray, f1: np.ndarray, k1
     return np.where(q_dep, flip_q, flip_p), np.where(q_dep, flip_p, flip_q), q_dep
 
 
-def star_weights(uv: np.ndarray, frame_scale: np.ndarray, s: np.ndarray, w: np.ndarray) -> np.ndarray:
+def star_weights(uv: np.ndarray | DD, frame_scale: np.ndarray, s: np.ndarray, w: np.ndarray) -> np.ndarray | DD:
     """Weights of ``(z_s, frame_s,x, frame_s,y)`` in the star points ``f(s^4 w)``, ``(..., 3)``.
 
     A star is affine in its vertex's frame: ``f(s^4 w) = (1 - x - y) z_s + x frame_s,x
     + y frame_s,y`` with ``(x, y) = (w - s) / d_s``; ``s, w`` are vertex ids of one shape.
     """
-    out = np.empty(s.shape + (3,))
-    np.subtract(_gather.rows(uv, w), _gather.rows(uv, s), out=out[..., 1:])
-    out[..., 1:] /= frame_scale[s][..., None]
-    np.subtract(1.0, out[..., 1], out=out[..., 0])
-    out[..., 0] -= out[..., 2]
-    return out
+    d = (ddouble.rows(uv, w) - ddouble.rows(uv, s)) / frame_scale[s][..., None]
+    x, y = d[..., 0], d[..., 1]
+    return ddouble.stack([1.0 - x - y, x, y], axis=-1)
 
 
 def frame_scales(tri: Triangulation) -> np.ndarray:
@@ -113,9 +122,9 @@ def diamonds(work: _parallel.Workers, tri: Triangulation, inner_weight: float, s
 def _diamond_range(tri: Triangulation, c2: np.ndarray, inner_weight: float, singular_tol: float,
                    lo: int, hi: int) -> np.ndarray:
     """Write ``c2[lo:hi]``; returns the vertex of each weak equation of those edges."""
-    a, b, f0, f1, k0, k1 = diamond_ids(tri, tri.interior_edges[lo:hi])
-    p, q = _gather.at(tri.faces, f0, k0), _gather.at(tri.faces, f1, k1)
-    c = diamond_coefficients(*(_gather.rows(tri.uv, v) for v in (p, q, a, b)))
+    ids = diamond_ids(tri, tri.interior_edges[lo:hi])
+    a, b = ids[0], ids[1]
+    c = edge_coefficients(tri, ids, tri.uv)
     c2[lo:hi] = c
     return np.concatenate([s[weak(c[:, mid_col], c[:, 0], c[:, 1], inner_weight, singular_tol)]
                            for s, mid_col in ((a, 3), (b, 2))])
