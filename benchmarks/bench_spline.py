@@ -11,6 +11,10 @@ SETTLE_S seconds: a VM that hands freed guest memory back to its host does so
 after ~2 s, so without the pause a child would inherit the previous process's
 freed (still backed) memory and its cold build would look faster than a user's.
 
+Columns 'dd.v' and 'snap.v': vertex systems eliminated again in double-double and vertices
+moved onto their crossing (issue 14; none on these kinds), 'snap s' the snap stage's time
+(the detection of nearly singular vertices) of the last build.
+
     python benchmarks/bench_spline.py [--sizes 10000 100000 1000000] [--kind perturbed|alternate|delaunay|delaunay-ordered]
 """
 from __future__ import annotations
@@ -70,7 +74,8 @@ for rep_i in range(int(sys.argv[3])):  # run 0 is cold (fresh process memory), l
         del space, ctrl, tri
 rep = continuity_report(tri, ctrl) if len(f) <= 200_000 else {"c1_relative": float("nan")}
 print(json.dumps(dict(faces=len(f), runs=runs, peak_kib=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, nnz=space.M.nnz, n_free=space.n_free, singular=space.n_singular,
-                      eliminated=space.stats["eliminated_vertices"], c1=rep["c1_relative"])))
+                      eliminated=space.stats["eliminated_vertices"], exact=space.stats["exact_vertices"],
+                      snapped=space.stats["snapped_vertices"], snap_s=space.stats["timings"]["snap"], c1=rep["c1_relative"])))
 """
 
 
@@ -114,7 +119,7 @@ def main() -> None:
     print(f"# build M + propagate ({args.kind} triangulations); peak RSS per child process;")
     print("# 'cold' = first build in a fresh process (pays first-touch page faults: see sys s), 'warm' = best later build")
     hdr = (f"{'faces':>9} {'run':>5} {'topology s':>10} {'build M s':>10} {'propagate s':>11} {'total s':>8} "
-           f"{'user s':>7} {'sys s':>6} {'us/face':>8} {'nnz(M)':>11} {'singular':>8} {'elim.v':>7} {'C1 rel':>8} {'peak GB':>8}")
+           f"{'user s':>7} {'sys s':>6} {'us/face':>8} {'nnz(M)':>11} {'singular':>8} {'elim.v':>7} {'dd.v':>5} {'snap.v':>6} {'snap s':>6} {'C1 rel':>8} {'peak GB':>8}")
     print(hdr)
     print("-" * len(hdr))
     for n in args.sizes:
@@ -126,7 +131,7 @@ def main() -> None:
             total = x["topo"] + x["build"] + x["propagate"]
             print(f"{r['faces']:>9} {label:>5} {x['topo']:>10.2f} {x['build']:>10.2f} {x['propagate']:>11.2f} {total:>8.2f} "
                   f"{x['user']:>7.2f} {x['sys']:>6.2f} {1e6 * total / r['faces']:>8.2f} {r['nnz']:>11} {r['singular']:>8} "
-                  f"{r['eliminated']:>7} {r['c1']:>8.1e} {r['peak_gb']:>8.2f}")
+                  f"{r['eliminated']:>7} {r['exact']:>5} {r['snapped']:>6} {r['snap_s']:>6.3f} {r['c1']:>8.1e} {r['peak_gb']:>8.2f}")
     print("target: 1M faces under 5 s total and 6 GB; us/face flat (linear cost)")
     probe_wall, probe_sys = first_touch_cost()
     print(f"# this machine writes 1 GiB of fresh memory in {probe_wall:.2f} s ({probe_sys:.2f} s kernel) "

@@ -27,6 +27,8 @@ class SplineSpace:
     Attributes
     ----------
     tri : Triangulation
+        The triangulation actually used: the input, or a copy whose nearly singular
+        vertices were moved onto the crossing of their two lines (``stats``).
     layout : NetLayout
     M : scipy.sparse.csr_array (n_points, n_free)
         Rows sum to one (affine combinations).
@@ -45,8 +47,13 @@ class SplineSpace:
     singular_vertices : (σ,) int64
         Vertices whose ``i = 1`` system lost rank (one extra free point each).
     stats : dict
-        ``max_coefficient``, ``max_elimination_coefficient``, ``nnz``,
-        ``eliminated_vertices`` and ``timings`` (seconds per build stage).
+        ``max_coefficient`` (largest ``|M|`` entry); ``max_elimination_coefficient``
+        (largest weight of one propagation step: fast-path and flip weights, and the
+        eliminated rows' weights of free points and frame variables, star points collapsed
+        into the frame); ``nnz``; ``eliminated_vertices`` (vertex systems reduced by
+        pivoting) and ``exact_vertices`` (of these, eliminated again in double-double);
+        ``snapped_vertices``, ``max_move`` (uv units) and ``max_relative_move`` (over the
+        moved vertex's mean edge length); ``timings`` (seconds per build stage).
     """
 
     tri: Triangulation
