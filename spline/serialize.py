@@ -19,6 +19,7 @@ minus the umask, or those of the file it replaces).
 from __future__ import annotations
 
 import json
+import math
 import os
 import zipfile
 from pathlib import Path
@@ -30,6 +31,7 @@ from .checks import as_array, check_ids
 from .errors import InputError, OutputError, SurfaceFileError, first_few
 from .index import DEGREE, NCTRL
 from .util.atomic import atomic_path
+from .util.npz import NpyHeader, npz_headers, read_npz
 
 __all__ = [
     "FORMAT",
@@ -43,6 +45,17 @@ __all__ = [
 FORMAT = "trispline.surface"
 VERSION = 1
 _REQUIRED = ("format", "version", "degree", "uv", "faces", "control_points")
+#: Largest ``format`` / ``version`` / ``degree`` member of an NPZ file (a short string or an integer).
+MAX_SCALAR_BYTES = 1024
+#: Longest integer literal a JSON surface file may hold (int64 has 19 digits).
+MAX_INT_DIGITS = 19
+
+
+def _as_path(path: Any) -> Path:
+    """``Path(path)``; anything but a string or path-like object is a :class:`SurfaceFileError`."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise SurfaceFileError(f"a surface file path must be a str or os.PathLike, got {type(path).__name__}")
+    return Path(path)
 
 
 def _suffix(path: Path) -> str:
@@ -74,22 +87,32 @@ def validate_surface_arrays(
     return uv, faces, ctrl
 
 
-def _check_header(get, source: str) -> None:
-    fmt = get("format")
-    if fmt != FORMAT:
-        raise SurfaceFileError(f"{source}: not a trispline surface (format {fmt!r}, expected {FORMAT!r})")
-    try:
-        version = int(get("version"))
-    except (TypeError, ValueError):
-        raise SurfaceFileError(f"{source}: version must be an integer, got {get('version')!r}") from None
+def _short(value: Any) -> str:
+    """``repr(value)`` cut to 60 characters (a file may hold anything)."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _integer(raw: Mapping[str, Any], key: str, source: str) -> int:
+    """``raw[key]`` as an int: only a true integer (not a bool, a string or 1.9) passes."""
+    value = raw[key]
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise SurfaceFileError(f"{source}: {key} must be an integer, got {_short(value)}")
+    return int(value)
+
+
+def _check_header(raw: Mapping[str, Any], source: str) -> None:
+    """The ``format``, ``version`` and ``degree`` keys of a file just read."""
+    fmt = raw["format"]
+    if not isinstance(fmt, str) or fmt != FORMAT:
+        raise SurfaceFileError(f"{source}: not a trispline surface (format {_short(fmt)}, expected {FORMAT!r})")
+    version = _integer(raw, "version", source)
     if version != VERSION:
-        raise SurfaceFileError(f"{source}: unsupported surface file version {version} (this reader knows {VERSION})")
-    try:
-        degree = int(get("degree"))
-    except (TypeError, ValueError):
-        raise SurfaceFileError(f"{source}: degree must be an integer, got {get('degree')!r}") from None
+        raise SurfaceFileError(f"{source}: unsupported surface file version {_short(version)} "
+                               f"(this reader knows {VERSION})")
+    degree = _integer(raw, "degree", source)
     if degree != DEGREE:
-        raise SurfaceFileError(f"{source}: degree {degree} is not supported (only quintic, degree {DEGREE})")
+        raise SurfaceFileError(f"{source}: degree {_short(degree)} is not supported (only quintic, degree {DEGREE})")
 
 
 def _write_atomically(path: Path, write: Callable[[Any], None]) -> None:
@@ -122,7 +145,7 @@ def write_surface(
     ``extras`` are optional keys written beside the required ones (they may not
     reuse a required key's name).
     """
-    path = Path(path)
+    path = _as_path(path)
     kind = _suffix(path)
     uv, faces, ctrl = validate_surface_arrays(uv, faces, ctrl, source="surface to save")
     extras = dict(extras or {})
@@ -149,45 +172,94 @@ def write_surface(
 
 
 def read_surface(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-    """Read and validate a surface file.
+    """Read and validate a surface file; memory stays bounded by what the file really holds.
+
+    An NPZ file's member headers (shape, dtype) are checked against the format before any
+    data is read (:mod:`trispline.spline.util.npz`: no pickles, no zip bombs, no header
+    claiming more than its member holds); a JSON file may not hold integers beyond int64 or
+    nest deeper than Python's recursion limit.
 
     Returns
     -------
     uv (V, 2), faces (F, 3), ctrl (F, 21, 3), extras (dict of the optional keys)
-    """
-    path = Path(path)
-    kind = _suffix(path)
-    if not path.is_file():
-        raise SurfaceFileError(f"{path}: no such surface file")
-    src = str(path)
-    if kind == ".npz":
-        if not zipfile.is_zipfile(path):
-            raise SurfaceFileError(f"{src}: not an NPZ archive (no zip structure)")
-        try:
-            with np.load(path, allow_pickle=False) as z:
-                raw = {k: z[k] for k in z.files}
-        except (zipfile.BadZipFile, OSError, EOFError) as exc:
-            raise SurfaceFileError(f"{src}: not an NPZ archive ({exc})") from None
-        except ValueError as exc:  # object arrays would need pickle
-            raise SurfaceFileError(f"{src}: unreadable NPZ entry ({exc})") from None
 
-        def get(k: str) -> Any:
-            v = raw[k]
-            return v.item() if v.ndim == 0 else v
-    else:
-        try:
-            raw = json.loads(path.read_text(encoding="utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise SurfaceFileError(f"{src}: not a JSON file ({exc})") from None
-        if not isinstance(raw, dict):
-            raise SurfaceFileError(f"{src}: JSON top level must be an object, got {type(raw).__name__}")
-        get = raw.__getitem__
+    Raises
+    ------
+    SurfaceFileError
+        Naming the file, the key and the problem.
+    """
+    path = _as_path(path)
+    kind = _suffix(path)
+    src = str(path)
+    if not path.is_file():
+        raise SurfaceFileError(f"{src}: no such surface file" if not path.is_dir() else f"{src}: is a folder")
+    try:
+        with open(path, "rb") as fh:
+            fh.read(1)
+    except OSError as exc:
+        raise SurfaceFileError(f"{src}: cannot read ({exc.strerror or exc})") from None
+    raw = _read_npz(path, src) if kind == ".npz" else _read_json(path, src)
     missing = [k for k in _REQUIRED if k not in raw]
     if "format" in missing:
         raise SurfaceFileError(f"{src}: not a trispline surface (no 'format' key)")
     if missing:
         raise SurfaceFileError(f"{src}: missing required keys {missing}")
-    _check_header(get, src)
-    uv, faces, ctrl = validate_surface_arrays(get("uv"), get("faces"), get("control_points"), source=src)
-    extras = {k: get(k) for k in raw if k not in _REQUIRED}
+    _check_header(raw, src)
+    uv, faces, ctrl = validate_surface_arrays(raw["uv"], raw["faces"], raw["control_points"], source=src)
+    extras = {k: v for k, v in raw.items() if k not in _REQUIRED}
     return uv, faces, ctrl, extras
+
+
+def _read_npz(path: Path, src: str) -> dict[str, Any]:
+    """The members of an NPZ surface file, 0-d arrays as Python scalars; headers checked first."""
+    if not zipfile.is_zipfile(path):
+        raise SurfaceFileError(f"{src}: not an NPZ archive (no zip structure)")
+    headers = npz_headers(path, src, error=SurfaceFileError)
+    _check_npz_headers(headers, src)
+    arrays = read_npz(path, headers, src, error=SurfaceFileError)
+    return {k: v.item() if v.ndim == 0 else v for k, v in arrays.items()}
+
+
+def _check_npz_headers(headers: Mapping[str, NpyHeader], src: str) -> None:
+    """Refuse core members of the wrong shape or dtype from their headers alone (no data read)."""
+    for key in ("format", "version", "degree"):
+        h = headers.get(key)
+        if h is not None and (h.shape != () or h.nbytes > MAX_SCALAR_BYTES):
+            raise SurfaceFileError(f"{src}: {key} must be a single value, got shape {h.shape} of {h.dtype}")
+    kinds = {"uv": ("V", 2), "faces": ("F", 3), "control_points": (None, NCTRL, 3)}
+    if "faces" in headers and len(headers["faces"].shape) == 2:
+        kinds["control_points"] = (headers["faces"].shape[0], NCTRL, 3)
+    for key, shape in kinds.items():
+        h = headers.get(key)
+        if h is None:
+            continue
+        if len(h.shape) != len(shape) or any(isinstance(n, int) and n != m for n, m in zip(shape, h.shape)):
+            want = "(" + ", ".join(str(n) for n in shape) + ")"
+            raise SurfaceFileError(f"{src}: {key} must have shape {want}, got {h.shape}")
+        allowed = "iu" if key == "faces" else "iuf"
+        if h.dtype.kind not in allowed and math.prod(h.shape):
+            what = "integers" if key == "faces" else "real numbers"
+            raise SurfaceFileError(f"{src}: {key} must hold {what}, got dtype {h.dtype}")
+
+
+def _read_json(path: Path, src: str) -> dict[str, Any]:
+    """The top-level object of a JSON surface file; integers beyond int64 are refused."""
+
+    def parse_int(text: str) -> int:
+        if len(text.lstrip("-")) > MAX_INT_DIGITS:
+            raise SurfaceFileError(f"{src}: integer of {len(text)} digits (more than int64 holds)")
+        return int(text)
+
+    try:
+        raw = json.loads(path.read_text(encoding="utf-8"), parse_int=parse_int)
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise SurfaceFileError(f"{src}: not a JSON file ({exc})") from None
+    except SurfaceFileError:
+        raise
+    except RecursionError:
+        raise SurfaceFileError(f"{src}: JSON nested too deeply (a surface file nests 3 levels)") from None
+    except (ValueError, OverflowError) as exc:
+        raise SurfaceFileError(f"{src}: unreadable JSON number ({exc})") from None
+    if not isinstance(raw, dict):
+        raise SurfaceFileError(f"{src}: JSON top level must be an object, got {type(raw).__name__}")
+    return raw

@@ -56,6 +56,8 @@ class SplineSurface:
         object.__setattr__(self, "uv", _frozen(uv))
         object.__setattr__(self, "faces", _frozen(faces))
         object.__setattr__(self, "ctrl", _frozen(ctrl))
+        if not isinstance(self.extras, Mapping):
+            raise InputError(f"extras must be a mapping of names to values, got {type(self.extras).__name__}")
         ext = {}
         for k, v in dict(self.extras).items():
             ext[str(k)] = _frozen(v) if isinstance(v, np.ndarray) else v

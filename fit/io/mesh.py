@@ -11,16 +11,18 @@ the result. The only exceptions are
   corners are merged (first occurrence first), because STL has no other notion
   of shared vertices.
 
-OBJ and OFF are parsed here (trimesh's OBJ reader drops unreferenced vertices
-silently when ``vt`` lines are present and keeps only one ``vt`` per vertex
-without saying so; its OFF reader fails on mixed polygon sizes). PLY, STL and
-GLB/GLTF go through ``trimesh.load(..., process=False)``. OBJ and OFF polygons are
-triangulated as fans ``(p0, p_i, p_i+1)`` in file order; trimesh triangulates PLY
-polygons itself and, when a PLY mixes triangles with larger polygons, lists the
-triangles first (vertex order is still kept; all-triangle files keep face order).
+OBJ and OFF are parsed by :mod:`.mesh_parse`, PLY, STL and GLB/GLTF go through
+``trimesh.load(..., process=False)`` once their headers are checked against the file
+size. OBJ and OFF polygons are triangulated as fans ``(p0, p_i, p_i+1)`` in file order;
+trimesh triangulates PLY polygons itself and, when a PLY mixes triangles with larger
+polygons, lists the triangles first (vertex order is still kept; all-triangle files
+keep face order). Every problem, from a missing, empty, unreadable or truncated file to
+a header announcing more than the file holds or faces naming missing vertices, is one
+:class:`~trispline.param.MeshError` naming the file and what is wrong.
 """
 from __future__ import annotations
 
+import os
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,6 +31,8 @@ import numpy as np
 
 from trispline.param.errors import MeshError, UnreferencedVerticesWarning
 from trispline.spline.errors import first_few
+
+from .mesh_parse import read_obj, read_off, read_trimesh
 
 #: File extensions :func:`read_mesh` understands.
 SUPPORTED = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf")
@@ -65,33 +69,25 @@ def read_mesh(path: str | Path) -> MeshData:
     Raises
     ------
     MeshError
-        Missing file, unknown extension, unreadable content, no faces.
+        Missing, unreadable or empty file, unknown extension, unreadable content (naming the
+        line or element at fault where known), no faces, faces naming missing vertices.
     """
-    path = Path(path)
-    if not path.exists():
-        raise MeshError(f"mesh file not found: {path}", ["missing_file"])
-    if not path.is_file():
-        raise MeshError(f"not a file: {path}", ["missing_file"])
+    path = _readable_file(path)
     ext = path.suffix.lower()
-    if ext not in SUPPORTED:
-        raise MeshError(
-            f"unknown mesh format {ext or '(no extension)'!r} for {path}; "
-            f"supported: {', '.join(SUPPORTED)}",
-            ["unknown_format"],
-        )
     try:
         if ext == ".obj":
-            V, F, uv = _read_obj(path)
+            V, F, uv = read_obj(path)
         elif ext == ".off":
-            V, F = _read_off(path)
+            V, F = read_off(path)
             uv = None
         else:
-            V, F = _read_trimesh(path, ext)
+            V, F = read_trimesh(path, ext)
             uv = None
     except MeshError:
         raise
     except Exception as exc:  # noqa: BLE001 - any parser failure is a user-facing format error
-        raise MeshError(f"cannot read {path} as {ext[1:].upper()}: {exc}", ["unreadable"]) from exc
+        raise MeshError(f"cannot read {path} as {ext[1:].upper()} (damaged, truncated or not such a file): "
+                        f"{type(exc).__name__}: {exc}", ["unreadable"]) from None
     V = np.ascontiguousarray(V, dtype=np.float64).reshape(-1, 3)
     F = np.ascontiguousarray(F, dtype=np.int64).reshape(-1, 3)
     if F.shape[0] == 0:
@@ -119,118 +115,32 @@ def read_mesh(path: str | Path) -> MeshData:
     return MeshData(V=V, F=F, uv=uv, path=path, dropped=dropped, kept=kept)
 
 
+def _readable_file(path: str | Path) -> Path:
+    """``Path(path)`` of an existing, readable, non-empty file with a supported suffix, else MeshError."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise MeshError(f"a mesh path must be a str or os.PathLike, got {type(path).__name__}", ["missing_file"])
+    path = Path(path)
+    if not path.exists():
+        raise MeshError(f"mesh file not found: {path}", ["missing_file"])
+    if not path.is_file():
+        raise MeshError(f"not a file: {path}" + (" (a folder)" if path.is_dir() else ""), ["missing_file"])
+    ext = path.suffix.lower()
+    if ext not in SUPPORTED:
+        raise MeshError(
+            f"unknown mesh format {ext or '(no extension)'!r} for {path}; supported: {', '.join(SUPPORTED)}",
+            ["unknown_format"],
+        )
+    try:
+        with open(path, "rb") as fh:
+            empty = not fh.read(1)
+    except OSError as exc:
+        raise MeshError(f"cannot read {path}: {exc.strerror or exc}", ["unreadable"]) from None
+    if empty:
+        raise MeshError(f"{path} is empty (0 bytes)", ["empty"])
+    return path
+
+
 def load_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """``(V (nv, 3) float64, F (nf, 3) int64)`` of :func:`read_mesh`."""
     m = read_mesh(path)
     return m.V, m.F
-
-
-# --------------------------------------------------------------------- helpers
-def _fan_triangulate(polys: list[list[int]]) -> np.ndarray:
-    """Fan-triangulate polygons given as index lists; returns (nf, 3) int64."""
-    if not polys:
-        return np.zeros((0, 3), np.int64)
-    sizes = np.fromiter((len(p) for p in polys), np.int64, len(polys))
-    if (sizes < 3).any():
-        bad = np.flatnonzero(sizes < 3)
-        raise MeshError(f"polygons with fewer than 3 vertices: {first_few(bad)}", ["unreadable"])
-    flat = np.fromiter((i for p in polys for i in p), np.int64, int(sizes.sum()))
-    if (sizes == 3).all():
-        return flat.reshape(-1, 3)
-    start = np.concatenate([[0], np.cumsum(sizes)[:-1]])
-    ntri = sizes - 2
-    poly_of = np.repeat(np.arange(len(polys)), ntri)
-    k = np.arange(ntri.sum()) - np.repeat(np.cumsum(ntri) - ntri, ntri)  # 0..n-3 within polygon
-    s = start[poly_of]
-    return np.column_stack([flat[s], flat[s + 1 + k], flat[s + 2 + k]])
-
-
-def _read_obj(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    verts: list[str] = []
-    texs: list[str] = []
-    fv: list[list[int]] = []
-    ft: list[list[int]] = []
-    has_all_vt = True
-    with open(path, encoding="utf-8", errors="replace") as fh:
-        for line in fh:
-            if line.startswith("v "):
-                verts.append(line[2:])
-            elif line.startswith("vt "):
-                texs.append(line[3:])
-            elif line.startswith("f "):
-                toks = line[2:].split()
-                nv_now, nt_now = len(verts), len(texs)
-                vi, ti = [], []
-                for t in toks:
-                    parts = t.split("/")
-                    i = int(parts[0])
-                    vi.append(i - 1 if i > 0 else nv_now + i)
-                    if len(parts) > 1 and parts[1]:
-                        j = int(parts[1])
-                        ti.append(j - 1 if j > 0 else nt_now + j)
-                    else:
-                        has_all_vt = False
-                fv.append(vi)
-                ft.append(ti)
-    if not verts:
-        raise MeshError(f"{path} has no vertices ('v' lines)", ["empty"])
-    V = np.array([row.split()[:3] for row in verts], dtype=np.float64)
-    F = _fan_triangulate(fv)
-    uv = None
-    if texs and has_all_vt and fv:
-        T = np.array([row.split()[:2] for row in texs], dtype=np.float64)
-        FT = _fan_triangulate(ft)
-        if FT.min() >= 0 and FT.max() < T.shape[0]:
-            # one texture coordinate per vertex: every (v, vt) pair agrees per v
-            per_v = np.full(V.shape[0], -1, np.int64)
-            per_v[F.ravel()] = FT.ravel()
-            same = np.allclose(T[per_v[F.ravel()]], T[FT.ravel()], rtol=0, atol=0)
-            if same:
-                uv = np.where((per_v >= 0)[:, None], T[np.maximum(per_v, 0)], np.nan)
-    return V, F, uv
-
-
-def _read_off(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    with open(path, encoding="utf-8", errors="replace") as fh:
-        tokens_lines = [ln.split("#", 1)[0].split() for ln in fh]
-    lines = [t for t in tokens_lines if t]
-    if not lines or not lines[0][0].upper().endswith("OFF"):
-        raise MeshError(f"{path} is not an OFF file (no OFF header)", ["unreadable"])
-    head = lines[0][1:]
-    rest = lines[1:]
-    if len(head) < 2:
-        head, rest = rest[0], rest[1:]
-    nv, nf = int(head[0]), int(head[1])
-    if len(rest) < nv + nf:
-        raise MeshError(
-            f"{path}: header announces {nv} vertices and {nf} faces but the file has {len(rest)} data lines",
-            ["unreadable"],
-        )
-    V = np.array([r[:3] for r in rest[:nv]], dtype=np.float64).reshape(-1, 3)
-    polys = []
-    for r in rest[nv : nv + nf]:
-        k = int(r[0])
-        if len(r) < k + 1:
-            raise MeshError(f"{path}: face line {r} lists fewer than {k} indices", ["unreadable"])
-        polys.append([int(x) for x in r[1 : k + 1]])
-    return V, _fan_triangulate(polys)
-
-
-def _read_trimesh(path: Path, ext: str) -> tuple[np.ndarray, np.ndarray]:
-    import trimesh
-
-    mesh = trimesh.load(path, process=False, force="mesh", maintain_order=True)
-    if not isinstance(mesh, trimesh.Trimesh):
-        raise MeshError(f"{path} holds no triangle mesh (got {type(mesh).__name__})", ["unreadable"])
-    V = np.asarray(mesh.vertices, dtype=np.float64)
-    F = np.asarray(mesh.faces, dtype=np.int64)
-    if ext == ".stl" and F.size:
-        # STL has no shared vertices: merge exactly equal corners, first occurrence first.
-        corners = V[F.ravel()]
-        _, first, inv = np.unique(corners, axis=0, return_index=True, return_inverse=True)
-        order = np.argsort(first, kind="stable")
-        rank = np.empty_like(order)
-        rank[order] = np.arange(order.size)
-        V = corners[first[order]]
-        F = rank[inv.ravel()].reshape(-1, 3)
-    return V, F

@@ -11,13 +11,21 @@
 
 The temporary name keeps the target's suffix (writers such as trimesh and
 :meth:`SplineSurface.save` choose the format by it) and starts with a dot, so a
-half-written file never looks like a result. :func:`os.replace` is atomic on
-POSIX and Windows when source and target are in the same folder.
+half-written file never looks like a result; its copy of the target's name is cut so
+that it never grows past the file system's name limit (``NAME_MAX``, 255 bytes).
+:func:`os.replace` is atomic on POSIX and Windows when source and target are in the
+same folder, so of two writers racing for one path the last rename wins and neither
+leaves a partial file. While a group is open in the main thread, SIGTERM raises
+:class:`Terminated` (a ``SystemExit`` with code 143) instead of killing the process
+at once, so the temporary files are deleted on the way out (SIGINT already raises
+``KeyboardInterrupt``); the renames themselves run with both signals blocked.
 """
 from __future__ import annotations
 
 import os
+import signal
 import tempfile
+import threading
 from contextlib import contextmanager
 from pathlib import Path
 from types import TracebackType
@@ -25,23 +33,112 @@ from typing import Callable, Iterator
 
 from trispline.spline.errors import OutputError
 
-__all__ = ["OutputError", "AtomicOutputs", "atomic_path", "write_with", "write_bytes", "write_text"]
+__all__ = ["OutputError", "Terminated", "AtomicOutputs", "atomic_path", "same_file", "write_with",
+           "write_bytes", "write_text"]
+
+#: Characters :func:`tempfile.mkstemp` adds to a name (its random part).
+_RANDOM_CHARS = 8
+#: The longest suffix a temporary name keeps (a real format's suffix is a few characters).
+_MAX_SUFFIX = 32
+
+
+class Terminated(SystemExit):
+    """SIGTERM arrived while an :class:`AtomicOutputs` group was open (exit code ``128 + 15``)."""
+
+
+def _name_max(folder: Path) -> int:
+    """The longest file name (bytes) ``folder``'s file system allows; 255 when it does not say."""
+    try:
+        return int(os.pathconf(folder, "PC_NAME_MAX"))
+    except (OSError, ValueError, AttributeError):  # pragma: no cover - not POSIX
+        return 255
+
+
+def _temp_affixes(path: Path, name_max: int) -> tuple[str, str]:
+    """``(prefix, suffix)`` of a temporary name for ``path`` that stays within ``name_max`` bytes.
+
+    The suffix ``.tmp<ext>`` keeps the target's extension; the prefix ``.<name>.`` keeps as
+    much of the target's name as fits beside mkstemp's random characters.
+    """
+    ext = path.suffix if len(os.fsencode(path.suffix)) <= _MAX_SUFFIX else ""
+    suffix = f".tmp{ext}"
+    room = name_max - 2 - _RANDOM_CHARS - len(os.fsencode(suffix))
+    name = os.fsencode(path.name)[:max(room, 0)]
+    return "." + os.fsdecode(name) + ".", suffix
 
 
 def _temp_for(path: Path) -> Path:
     """Create (empty) and return a fresh temporary file beside ``path`` with the same suffix."""
     folder = path.parent
-    if not folder.is_dir():
+    try:
+        name_max = _name_max(folder) if folder.is_dir() else None
+    except OSError as exc:  # e.g. a folder name past the limit
+        raise OutputError(f"cannot write {path}: {exc.strerror or exc}") from None
+    if name_max is None:
         raise OutputError(f"cannot write {path}: folder {folder} does not exist")
+    size = len(os.fsencode(path.name))
+    if size > name_max:
+        raise OutputError(f"cannot write {path}: the file name has {size} bytes, more than the "
+                          f"{name_max} the file system allows")
     if path.is_dir():
         raise OutputError(f"cannot write {path}: it is a folder")
-    suffix = "".join(path.suffixes[-1:])
+    prefix, suffix = _temp_affixes(path, name_max)
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{suffix}", dir=folder)
+        fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=folder)
     except OSError as exc:
         raise OutputError(f"cannot write {path}: {exc.strerror or exc}") from None
     os.close(fd)
     return Path(tmp)
+
+
+def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """Whether paths ``a`` and ``b`` name one file (links followed); False when either is missing."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+class _SigtermGuard:
+    """SIGTERM raises :class:`Terminated` while at least one group is open (main thread only)."""
+
+    depth = 0
+    previous: object = None
+
+    @classmethod
+    def enter(cls) -> None:
+        if threading.current_thread() is not threading.main_thread():
+            return
+        if cls.depth == 0:
+            if signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+                return  # the program handles (or ignores) SIGTERM itself
+            cls.previous = signal.signal(signal.SIGTERM, _raise_terminated)
+        cls.depth += 1
+
+    @classmethod
+    def exit(cls) -> None:
+        if threading.current_thread() is not threading.main_thread() or cls.depth == 0:
+            return
+        cls.depth -= 1
+        if cls.depth == 0:
+            signal.signal(signal.SIGTERM, cls.previous)
+
+
+def _raise_terminated(signum: int, frame: object) -> None:
+    raise Terminated(128 + signum)
+
+
+@contextmanager
+def _signals_blocked() -> Iterator[None]:
+    """SIGINT and SIGTERM held back (delivered on exit): renames are not cut in half."""
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - not POSIX
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _file_mode(target: Path) -> int:
@@ -88,36 +185,42 @@ class AtomicOutputs:
     def commit(self) -> list[Path]:
         """Rename every temporary file onto its target; returns the targets."""
         done = []
-        try:
-            for target, tmp in self._pending:
-                os.chmod(tmp, _file_mode(target))  # mkstemp creates 0o600
-                os.replace(tmp, target)
-                done.append(target)
-        except OSError as exc:
-            self.discard()
-            raise OutputError(f"cannot write {target}: {exc.strerror or exc}") from None
-        self._pending = []
+        with _signals_blocked():
+            try:
+                for target, tmp in self._pending:
+                    os.chmod(tmp, _file_mode(target))  # mkstemp creates 0o600
+                    os.replace(tmp, target)
+                    done.append(target)
+            except OSError as exc:
+                self.discard()
+                raise OutputError(f"cannot write {target}: {exc.strerror or exc}") from None
+            self._pending = []
         return done
 
     def discard(self) -> None:
         """Delete every temporary file not yet committed."""
-        for _, tmp in self._pending:
-            _unlink_quietly(tmp)
-        self._pending = []
+        with _signals_blocked():
+            for _, tmp in self._pending:
+                _unlink_quietly(tmp)
+            self._pending = []
 
     def __enter__(self) -> "AtomicOutputs":
+        _SigtermGuard.enter()
         return self
 
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
-        if exc_type is None:
-            try:
-                self.commit()
-            except BaseException:
+        try:
+            if exc_type is None:
+                try:
+                    self.commit()
+                except BaseException:
+                    self.discard()
+                    raise
+            else:
                 self.discard()
-                raise
-        else:
-            self.discard()
+        finally:
+            _SigtermGuard.exit()
 
 
 @contextmanager

@@ -1,0 +1,245 @@
+"""Parsers of the mesh formats :func:`~trispline.fit.io.mesh.read_mesh` reads, and size checks
+of the binary ones, each raising :class:`~trispline.param.MeshError` with the file and the problem.
+
+OBJ and OFF are parsed here (trimesh's OBJ reader drops unreferenced vertices silently when
+``vt`` lines are present and keeps only one ``vt`` per vertex without saying so; its OFF
+reader fails on mixed polygon sizes). PLY, STL and GLB/GLTF go through
+``trimesh.load(..., process=False)`` after their headers are checked against the file size
+(:func:`check_ply_header`, :func:`check_stl_size`): a header that claims more elements than
+the file can hold is refused before anything is allocated.
+"""
+from __future__ import annotations
+
+from itertools import islice
+from pathlib import Path
+
+import numpy as np
+
+from trispline.param.errors import MeshError
+from trispline.spline.errors import first_few
+
+__all__ = ["fan_triangulate", "read_obj", "read_off", "check_ply_header", "check_stl_size", "read_trimesh"]
+
+#: Bytes of the shortest OFF vertex line (``"0 0 0\n"``) and face line (``"3 0 1 2\n"``).
+_OFF_MIN_VERTEX, _OFF_MIN_FACE = 6, 8
+#: Longest PLY header read (real headers have a few hundred bytes).
+_PLY_MAX_HEADER = 1 << 16
+#: Bytes of each PLY scalar type.
+_PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2,
+              "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4,
+              "double": 8, "float64": 8}
+
+
+def _unreadable(path: Path, what: str) -> MeshError:
+    return MeshError(f"{path}: {what}", ["unreadable"])
+
+
+def fan_triangulate(polys: list[list[int]], where: Path) -> np.ndarray:
+    """Fan-triangulate polygons ``(p0, p_i, p_i+1)`` given as index lists; returns ``(nf, 3)`` int64."""
+    if not polys:
+        return np.zeros((0, 3), np.int64)
+    sizes = np.fromiter((len(p) for p in polys), np.int64, len(polys))
+    if (sizes < 3).any():
+        raise _unreadable(where, f"polygons with fewer than 3 vertices: {first_few(np.flatnonzero(sizes < 3))}")
+    try:
+        flat = np.fromiter((i for p in polys for i in p), np.int64, int(sizes.sum()))
+    except OverflowError:
+        raise _unreadable(where, "face vertex indices beyond the int64 range") from None
+    if (sizes == 3).all():
+        return flat.reshape(-1, 3)
+    start = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    ntri = sizes - 2
+    poly_of = np.repeat(np.arange(len(polys)), ntri)
+    k = np.arange(ntri.sum()) - np.repeat(np.cumsum(ntri) - ntri, ntri)  # 0..n-3 within polygon
+    s = start[poly_of]
+    return np.column_stack([flat[s], flat[s + 1 + k], flat[s + 2 + k]])
+
+
+def _coordinates(rows: list[str] | list[list[str]], width: int, what: str, where: Path) -> np.ndarray:
+    """``(n, width)`` float64 of the first ``width`` numbers of each row (a line or its tokens);
+    the first bad row is named."""
+    split = (lambda r: r.split()) if rows and isinstance(rows[0], str) else (lambda r: r)
+    try:
+        return np.array([split(r)[:width] for r in rows], dtype=np.float64).reshape(-1, width)
+    except ValueError:
+        for i, r in enumerate(map(split, rows)):
+            if len(r) < width:
+                raise _unreadable(where, f"{what} {i + 1} has {len(r)} coordinates, expected {width}") from None
+            try:
+                [float(x) for x in r[:width]]
+            except ValueError:
+                raise _unreadable(where, f"{what} {i + 1} has a coordinate that is not a number: "
+                                         f"{' '.join(r[:width])[:60]!r}") from None
+        raise  # pragma: no cover - every row converts alone
+
+
+def read_obj(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """``(V (nv, 3), F (nf, 3), uv (nv, 2) or None)``; ``uv`` when every vertex has exactly one ``vt``."""
+    verts: list[str] = []  # lines, split later: lists would keep the garbage collector busy
+    texs: list[str] = []
+    fv: list[list[int]] = []
+    ft: list[list[int]] = []
+    has_all_vt = True
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        try:
+            for text in fh:
+                if text.startswith("v "):
+                    verts.append(text[2:])
+                elif text.startswith("vt "):
+                    texs.append(text[3:])
+                elif text.startswith("f "):
+                    nv_now, nt_now = len(verts), len(texs)
+                    vi, ti = [], []
+                    for t in text[2:].split():
+                        parts = t.split("/")
+                        i = int(parts[0])
+                        vi.append(i - 1 if i > 0 else nv_now + i)
+                        if len(parts) > 1 and parts[1]:
+                            j = int(parts[1])
+                            ti.append(j - 1 if j > 0 else nt_now + j)
+                        else:
+                            has_all_vt = False
+                    fv.append(vi)
+                    ft.append(ti)
+        except ValueError:
+            raise _unreadable(path, f"a face index is not an integer in the line {text.strip()[:60]!r}") from None
+    if not verts:
+        raise MeshError(f"{path} has no vertices ('v' lines)", ["empty"])
+    V = _coordinates(verts, 3, "vertex", path)
+    F = fan_triangulate(fv, path)
+    uv = None
+    if texs and has_all_vt and fv:
+        T = _coordinates(texs, 2, "texture coordinate", path)
+        FT = fan_triangulate(ft, path)
+        if FT.min() >= 0 and FT.max() < T.shape[0]:
+            # one texture coordinate per vertex: every (v, vt) pair agrees per v
+            per_v = np.full(V.shape[0], -1, np.int64)
+            ok = (F.ravel() >= 0) & (F.ravel() < V.shape[0])
+            per_v[F.ravel()[ok]] = FT.ravel()[ok]
+            if ok.all() and np.array_equal(T[per_v[F.ravel()]], T[FT.ravel()]):
+                uv = np.where((per_v >= 0)[:, None], T[np.maximum(per_v, 0)], np.nan)
+    return V, F, uv
+
+
+def _off_counts(head: list[str], path: Path) -> tuple[int, int]:
+    """``(nv, nf)`` of an OFF header line, refused when negative or more than the file can hold."""
+    try:
+        nv, nf = int(head[0]), int(head[1])
+    except (ValueError, IndexError):
+        raise _unreadable(path, f"the OFF header's counts {' '.join(head)[:60]!r} are not two integers") from None
+    if nv < 0 or nf < 0:
+        raise _unreadable(path, f"header announces negative counts ({nv} vertices, {nf} faces)")
+    size = path.stat().st_size
+    need = _OFF_MIN_VERTEX * nv + _OFF_MIN_FACE * nf
+    if need > size:
+        raise _unreadable(path, f"header announces {nv} vertices and {nf} faces, which need at least "
+                                f"{need} bytes, but the file has {size}")
+    return nv, nf
+
+
+def read_off(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """``(V (nv, 3), F (nf, 3))`` of an OFF file (COFF/NOFF columns beyond x, y, z ignored)."""
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        lines = (t for t in (ln.split("#", 1)[0].split() for ln in fh) if t)
+        first = next(lines, None)
+        if first is None or not first[0].upper().endswith("OFF"):
+            raise _unreadable(path, "not an OFF file (no OFF header)")
+        head = first[1:] if len(first) >= 3 else next(lines, [])
+        nv, nf = _off_counts(head, path)
+        rest = list(islice(lines, nv + nf))
+    if len(rest) < nv + nf:
+        raise _unreadable(path, f"header announces {nv} vertices and {nf} faces but the file has "
+                                f"{len(rest)} data lines")
+    V = _coordinates(rest[:nv], 3, "vertex", path)
+    polys = []
+    for i, r in enumerate(rest[nv:], 1):
+        try:
+            k = int(r[0])
+            polys.append([int(x) for x in r[1: k + 1]])
+        except ValueError:
+            raise _unreadable(path, f"face {i} is not a list of integers: {' '.join(r)[:60]!r}") from None
+        if len(polys[-1]) < k:
+            raise _unreadable(path, f"face line {r} lists fewer than {k} indices")
+    return V, fan_triangulate(polys, path)
+
+
+def _ply_min_bytes(header: list[str], ascii_: bool) -> tuple[int, dict[str, int]]:
+    """Fewest bytes the body of a PLY with this header can have, and its element counts."""
+    need, counts, row = 0, {}, 0
+    name = None
+    for tok in [ln.split() for ln in header] + [["element", "", "0"]]:
+        if tok[:1] == ["element"] and len(tok) >= 3:
+            if name is not None:
+                need += counts[name] * max(row, 1)
+            name, row = tok[1], 0
+            counts[name] = int(tok[2])
+            if counts[name] < 0:
+                raise ValueError(f"negative count for element {name!r}")
+        elif tok[:1] == ["property"] and len(tok) >= 3:
+            # ascii: a digit and a separator per value; binary: the value, or a list's count
+            row += 2 if ascii_ else _PLY_SIZES.get(tok[2] if tok[1] == "list" else tok[1], 1)
+    counts.pop("", None)
+    return need, counts
+
+
+def check_ply_header(path: Path) -> None:
+    """Refuse a PLY whose header claims more elements than the rest of the file can hold."""
+    with open(path, "rb") as fh:
+        blob = fh.read(_PLY_MAX_HEADER)
+    end = blob.find(b"end_header")
+    if not blob.startswith(b"ply") or end < 0:
+        raise _unreadable(path, "cannot read as PLY: not a PLY file (no 'ply ... end_header' header)")
+    header = blob[:end].decode("ascii", "replace").splitlines()
+    fmt = next((ln.split()[1] for ln in header if ln.startswith("format") and len(ln.split()) > 1), "")
+    try:
+        need, counts = _ply_min_bytes(header, fmt == "ascii")
+    except ValueError as exc:
+        raise _unreadable(path, f"cannot read as PLY: bad header ({exc})") from None
+    body = path.stat().st_size - (end + len(b"end_header") + 1)
+    if need > body:
+        claims = ", ".join(f"{n} {k}" for k, n in counts.items())
+        raise _unreadable(path, f"header announces {claims}, which need at least {need} bytes, "
+                                f"but the file has {max(body, 0)} after its header (truncated?)")
+
+
+def check_stl_size(path: Path) -> None:
+    """Refuse a file that is neither ASCII STL nor a binary STL of the size its header claims."""
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(84)
+    if size >= 84:
+        n = int.from_bytes(head[80:84], "little")
+        if 84 + 50 * n == size:
+            return
+    if head.lstrip().startswith(b"solid"):
+        return
+    if size < 84:
+        raise _unreadable(path, f"not an STL file ({size} bytes: too short for binary STL, no 'solid' line)")
+    raise _unreadable(path, f"not an STL file: as binary STL its header announces {n} triangles "
+                            f"({84 + 50 * n} bytes) but the file has {size} bytes, and it does not start "
+                            "with 'solid' (ASCII STL)")
+
+
+def read_trimesh(path: Path, ext: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(V, F)`` through ``trimesh.load(process=False)``; an STL's exactly equal corners merged
+    (first occurrence first), because STL has no other notion of shared vertices."""
+    import trimesh
+
+    if ext == ".ply":
+        check_ply_header(path)
+    elif ext == ".stl":
+        check_stl_size(path)
+    mesh = trimesh.load(path, process=False, force="mesh", maintain_order=True)
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise _unreadable(path, f"holds no triangle mesh (got {type(mesh).__name__})")
+    V = np.asarray(mesh.vertices, dtype=np.float64)
+    F = np.asarray(mesh.faces, dtype=np.int64)
+    if ext == ".stl" and F.size:
+        corners = V[F.ravel()]
+        _, first, inv = np.unique(corners, axis=0, return_index=True, return_inverse=True)
+        order = np.argsort(first, kind="stable")
+        rank = np.empty_like(order)
+        rank[order] = np.arange(order.size)
+        V = corners[first[order]]
+        F = rank[inv.ravel()].reshape(-1, 3)
+    return V, F
