@@ -218,3 +218,17 @@ def test_threaded_build_with_snaps_and_exact_systems_equals_inline(monkeypatch):
         for name in ("data", "indices", "indptr"):
             np.testing.assert_array_equal(getattr(a.M, name), getattr(b.M, name))
         np.testing.assert_array_equal(a.singular_vertices, b.singular_vertices)
+
+
+@pytest.mark.parametrize("eps", [1e-14, 1e-13, 1e-12])
+def test_building_on_the_triangulation_used_changes_nothing(eps):
+    """A surface stores ``space.tri.uv``; building on it again (``SplineEditor.from_surface``,
+    ``trispline check``) moves no vertex and gives the same ``M``, bit for bit."""
+    uv, faces = domains.grid(10, diagonal="crisscross")
+    first = build_space(domains.perturb(uv, faces, eps, seed=4), faces)
+    assert first.stats["snapped_vertices"] > 0
+    again = build_space(first.tri.uv, faces)
+    assert again.stats["snapped_vertices"] == 0
+    np.testing.assert_array_equal(again.singular_vertices, first.singular_vertices)
+    for name in ("data", "indices", "indptr"):
+        np.testing.assert_array_equal(getattr(again.M, name), getattr(first.M, name))
