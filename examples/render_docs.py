@@ -8,11 +8,18 @@ Writes into docs/images/:
                       off-edge control point moved (C0 only): the stripes break at the seam;
 * ``scan_vs_fit.png`` the synthetic scan (flat triangles) next to its fitted surface;
 * ``real_curvature.png`` and ``real_deviation.png``: mean curvature and deviation maps of a
-  fitted real mesh (``../shared/data/inspired_mesh.obj`` when present, else the synthetic scan);
+  fitted real mesh with the default view (``inspired_mesh.obj`` from ../shared/data or the
+  cache folder when present, else the generated face scan);
+* ``default_view.png`` a real mesh that faces away from the old default camera (``mountain.obj``,
+  a y-up height field, else the face scan turned upside down): the ``iso`` view sees its back
+  (tan), the default ``auto`` view its front;
+* ``zebra_auto.png``  the old default of 12 zebra stripes next to the automatic count on a
+  34k-patch fit (``face_gpjs.obj``, else ``face_scan(30000)``) at 800 x 600 per panel;
 
 and prints the timing table (100k-patch surface, each mode, PyVista and the matplotlib
 fallback). The zebra pictures with and without the tilt term come from
-``python examples/04_zebra_tilt.py --docs``.
+``python examples/04_zebra_tilt.py --docs``. The captions carry the date of
+``$SOURCE_DATE_EPOCH`` when it is set.
 """
 from __future__ import annotations
 
@@ -27,8 +34,11 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 from trispline.fit import render as rd  # noqa: E402
-from trispline.fit.pipeline import fit_surface  # noqa: E402
+from trispline.fit.datasets.cache import find_data  # noqa: E402
+from trispline.fit.datasets.face import face_scan  # noqa: E402
 from trispline.fit.datasets.synthetic import synthetic_scan  # noqa: E402
+from trispline.fit.io import load_mesh  # noqa: E402
+from trispline.fit.pipeline import fit_surface  # noqa: E402
 from trispline.spline.index import index_of  # noqa: E402
 from trispline.spline.testing.domains import grid  # noqa: E402
 from trispline.spline.polynomial import polynomial_control_net  # noqa: E402
@@ -36,7 +46,6 @@ from trispline.spline.surface import SplineSurface  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 IMAGES = ROOT / "docs" / "images"
-DATA = ROOT.parent / "shared" / "data"
 
 
 def graph(n: int, func) -> SplineSurface:
@@ -45,9 +54,25 @@ def graph(n: int, func) -> SplineSurface:
         uv, faces, lambda p: np.column_stack([p[:, 0], p[:, 1], func(p[:, 0], p[:, 1])])))
 
 
-def pictures() -> None:
-    IMAGES.mkdir(parents=True, exist_ok=True)
-    # --- a kink breaks the stripes
+def real_mesh(name: str, faces: int) -> tuple[np.ndarray, np.ndarray, str]:
+    """``V, F`` and a label: the shared mesh ``name`` where present, else ``face_scan(faces)``."""
+    path = find_data(name)
+    if path is not None:
+        V, F = load_mesh(path)
+        return V, F, name
+    V, F = face_scan(faces, seed=0)
+    return V, F, f"face_scan({faces})"
+
+
+def fitted(V: np.ndarray, F: np.ndarray, label: str) -> SplineSurface:
+    t0 = time.perf_counter()
+    surface = fit_surface(V, F).surface
+    print(f"fit {label}: {F.shape[0]} faces, {time.perf_counter() - t0:.1f} s")
+    return surface
+
+
+def kink() -> None:
+    """An exactly C1 surface and the same with one off-edge control point moved: C0 only."""
     s = graph(4, lambda u, v: 0.15 * (u - 0.5) ** 2 + 0.1 * (v - 0.3) ** 2 + 0.05 * u * v)
     tri = s.triangulation
     e = next(int(e) for e in tri.interior_edges
@@ -61,6 +86,11 @@ def pictures() -> None:
     rd.render_panels([rd.Panel(s, "zebra", title="C1 (intact)"),
                       rd.Panel(kinked, "zebra", title="one control point moved by 0.01: C0 only")],
                      IMAGES / "kink.png", view="top", size=(1000, 520))
+
+
+def pictures() -> None:
+    IMAGES.mkdir(parents=True, exist_ok=True)
+    kink()
     # --- the scan next to its fit
     V, F = synthetic_scan(800, seed=0)
     fit = fit_surface(V, F).surface
@@ -68,24 +98,30 @@ def pictures() -> None:
     rd.render_panels([rd.Panel(mesh=(V, F), title=f"scan: {F.shape[0]} triangles"),
                       rd.Panel(fit, "shaded", title=f"fitted C1 quintic spline ({fit.n_faces} patches)")],
                      IMAGES / "scan_vs_fit.png", view=view, size=(1200, 520))
-    # --- curvature and deviation of a real mesh
-    real = DATA / "inspired_mesh.obj"
-    if real.exists():
-        from trispline.fit.io import load_mesh
-
-        V, F = load_mesh(real)
-        name = real.name
-    else:
-        V, F = synthetic_scan(3000, seed=1)
-        name = "synthetic scan"
-    t0 = time.perf_counter()
-    fit = fit_surface(V, F).surface
-    print(f"fit {name}: {F.shape[0]} faces, {time.perf_counter() - t0:.1f} s")
-    view = rd.mean_normal_view(V, F, elevation=50.0)
-    rd.render(fit, IMAGES / "real_curvature.png", "curvature", view=view, size=(900, 600),
+    # --- curvature and deviation of a real mesh, default view
+    V, F, name = real_mesh("inspired_mesh.obj", 4000)
+    fit = fitted(V, F, name)
+    rd.render(fit, IMAGES / "real_curvature.png", "curvature", size=(900, 600),
               title=f"mean curvature of the fit of {name}")
-    rd.render(fit, IMAGES / "real_deviation.png", "deviation", mesh=(V, F), view=view, size=(900, 600),
+    rd.render(fit, IMAGES / "real_deviation.png", "deviation", mesh=(V, F), size=(900, 600),
               title=f"deviation of the fit from {name}")
+    # --- a mesh facing away from the old default camera
+    V, F, name = real_mesh("mountain.obj", 4000)
+    if name != "mountain.obj":
+        V = V * [1.0, -1.0, -1.0]  # turned upside down (180 degrees about x)
+        name += ", upside down"
+    fit = fitted(V, F, name)
+    rd.render_panels([rd.Panel(fit, "shaded", title="--view iso (the old default)", options=dict(view="iso")),
+                      rd.Panel(fit, "shaded", title="--view auto (the default)")],
+                     IMAGES / "default_view.png", size=(1200, 520))
+    # --- zebra stripes: 12 alias, the automatic count does not
+    V, F, name = real_mesh("face_gpjs.obj", 30000)
+    fit = fitted(V, F, name)
+    pic = rd.draw_panels([rd.Panel(fit, "zebra", title="--stripes 12 (the old default)", options=dict(stripes=12)),
+                          rd.Panel(fit, "zebra", title="automatic stripe count (the default)")], size=(1600, 600))
+    rd.write_png(pic.image, IMAGES / "zebra_auto.png")
+    print(f"zebra of {name}: " + "; ".join(f"{p['stripes']:g} stripes, pairs >= {p['stripe_pixels']:.3g} px"
+                                            for p in pic.stats["panels"]))
     print(f"wrote pictures to {IMAGES}")
 
 

@@ -1,15 +1,16 @@
 """The ``trispline render`` subcommand (registered by :func:`add_parser`).
 
     trispline render SURFACE.npz -o picture.png [--mode shaded|zebra|curvature|deviation|controlnet]
-                     [--mesh DATA_MESH] [--view iso|top|front|side|AZ,EL] [--size WxH] [--resolution N]
-                     [--curvature mean|gaussian] [--stripes N] [--stripe-angle DEG] [--title TEXT]
-                     [--backend auto|pyvista|matplotlib] [--json] [--quiet]
+                     [--mesh DATA_MESH] [--view auto|iso|top|front|side|AZ,EL] [--size WxH] [--resolution N]
+                     [--curvature mean|gaussian] [--stripes N] [--stripe-angle DEG] [--patch-lines auto|on|off]
+                     [--title TEXT] [--caption TEXT] [--backend auto|pyvista|matplotlib] [--json] [--quiet]
 
 Conventions of :mod:`trispline.fit.cli.common`: bad input (unreadable surface or mesh,
 bad option, deviation without a data mesh) raises an ``InputError`` (exit 2,
 one line on stderr); the picture is written atomically; ``--json`` prints the
-result (size, backend, the picture's scale statistics) on stdout. :func:`main` runs
-``trispline render ...`` on its own, with the same exit codes.
+result (size, backend, the view and stripe count chosen, the picture's scale
+statistics) on stdout. :func:`main` runs ``trispline render ...`` on its own, with
+the same exit codes. Every option's help says its default and its meaning.
 """
 from __future__ import annotations
 
@@ -43,34 +44,51 @@ def _option(parse: Callable[[str], Any]) -> Callable[[str], Any]:
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``render`` on an ``add_subparsers()`` action; returns its parser (``func=run``)."""
-    from ..render import BACKENDS, CURVATURES, MODES, VIEWS, parse_size, parse_view
+    from ..render import BACKENDS, CURVATURES, MODES, VIEWS, check_view, parse_size
+    from ..render.sampling import TARGET_TRIANGLES
+    from ..render.scene import CURVATURE_PERCENTILE, PATCH_LINES_MAX
+    from ..render.zebra import MAX_STRIPES, MIN_STRIPE_PIXELS, STRIPE_AREA_FRACTION
 
     p = subparsers.add_parser(
         "render", help="draw a picture of a surface: shaded, zebra, curvature, deviation or control net",
         description="Render a surface file off-screen to a PNG: shaded, zebra stripes (highlight lines of the "
                     "analytic normals: broken stripes show a kink), mean or Gaussian curvature, deviation from "
-                    "the data mesh, or the control net. Uses PyVista/VTK without a display, or matplotlib.")
-    p.add_argument("surface", metavar="SURFACE", help="surface file (.npz or .json)")
-    p.add_argument("-o", "--output", required=True, metavar="PNG", help="picture to write (.png)")
-    p.add_argument("--mode", choices=MODES, default="shaded", help="what to show (default shaded)")
+                    "the data mesh, or the control net. Uses PyVista/VTK without a display (pip install "
+                    "'trispline[render]'), or matplotlib. Lengths are in the surface's own unit ('model units').")
+    p.add_argument("surface", metavar="SURFACE", help="surface file to draw (.npz or .json)")
+    p.add_argument("-o", "--output", required=True, metavar="PNG", help="picture to write (.png; required)")
+    p.add_argument("--mode", choices=MODES, default="shaded",
+                   help="what to show: shaded surface (front blue, back tan), zebra stripes, curvature colours, "
+                        "deviation from the data mesh, or the control net (default shaded)")
     p.add_argument("--mesh", metavar="DATA_MESH",
                    help="data mesh for --mode deviation (default: the fit's data vertices stored in the surface)")
-    p.add_argument("--view", type=_option(parse_view), default="iso", metavar="VIEW",
-                   help=f"{'|'.join(VIEWS)} or AZIMUTH,ELEVATION in degrees (default iso)")
+    p.add_argument("--view", type=_option(check_view), default="auto", metavar="VIEW",
+                   help=f"camera direction: auto (look along the surface's mean normal, from the side it points "
+                        f"to), {', '.join(VIEWS)}, or AZIMUTH,ELEVATION in degrees, z up (default auto)")
     p.add_argument("--size", type=_option(parse_size), default=DEFAULT_SIZE, metavar="WxH",
-                   help=f"picture size in pixels (default {DEFAULT_SIZE})")
+                   help=f"picture width x height in pixels, 16..8192 each (default {DEFAULT_SIZE})")
     p.add_argument("--resolution", type=positive_int, default=None, metavar="N",
-                   help="samples per patch edge (default: automatic, about 1.7M triangles, at most 8)")
-    p.add_argument("--curvature", choices=CURVATURES, default="mean", help="for --mode curvature (default mean)")
-    p.add_argument("--stripes", type=positive_float, default=12.0, metavar="N",
-                   help="zebra: light tubes per bounding-box diagonal (default 12)")
+                   help=f"samples per patch edge (default: automatic, about {TARGET_TRIANGLES['pyvista'] / 1e6:g}M "
+                        f"triangles with PyVista, {TARGET_TRIANGLES['matplotlib'] / 1e3:g}k with matplotlib, "
+                        f"at most 8)")
+    p.add_argument("--curvature", choices=CURVATURES, default="mean",
+                   help=f"for --mode curvature: mean H (1/model unit) or Gaussian K (1/model unit^2); the colour "
+                        f"range is the {CURVATURE_PERCENTILE:g}th percentile of |value| (default mean)")
+    p.add_argument("--stripes", type=positive_float, default=None, metavar="N",
+                   help=f"zebra: stripe pairs (light tubes) per bounding-box diagonal (default: automatic, the "
+                        f"most up to {MAX_STRIPES:g} that keep pairs {MIN_STRIPE_PIXELS:g} px wide on "
+                        f"{100 * STRIPE_AREA_FRACTION:g}%% of the surface, so that they do not alias into noise)")
     p.add_argument("--stripe-angle", type=finite_float, default=45.0, metavar="DEG",
                    help="zebra: direction of the tubes on screen, degrees from horizontal (default 45)")
     p.add_argument("--patch-lines", choices=("auto", "on", "off"), default="auto",
-                   help="draw the patch boundaries (default auto: up to 2000 patches)")
-    p.add_argument("--title", default=None, help="picture title (default: the mode and patch count)")
+                   help=f"draw the patch boundaries (default auto: up to {PATCH_LINES_MAX} patches)")
+    p.add_argument("--title", default=None, metavar="TEXT", help="picture title (default: the mode and patch count)")
+    p.add_argument("--caption", default=None, metavar="TEXT",
+                   help="text in the bottom right corner (default: the date, the surface file name and the "
+                        "trispline version; --caption '' for none)")
     p.add_argument("--backend", choices=BACKENDS, default=None,
-                   help="auto (PyVista, else matplotlib; default, or $TRISPLINE_RENDER_BACKEND), pyvista, matplotlib")
+                   help="auto (PyVista, else matplotlib with a warning), pyvista, matplotlib (default: "
+                        "$TRISPLINE_RENDER_BACKEND, else auto)")
     add_common(p)
     p.set_defaults(func=run)
     return p
@@ -84,14 +102,16 @@ def _text(d: dict) -> str:
     elif d["mode"] == "deviation":
         extra = f", max deviation {stats['max_abs']:.3g}, RMS {stats['rms']:.3g}"
     elif d["mode"] == "zebra":
-        extra = f", stripe spacing {stats['stripe_spacing']:.3g}"
+        how = "automatic" if stats["stripes_auto"] else "set"
+        extra = (f", {stats['stripes']:g} stripes ({how}, pairs >= {stats['stripe_pixels']:.3g} px), "
+                 f"stripe spacing {stats['stripe_spacing']:.3g}")
     return (f"wrote {d['output']} ({d['width']}x{d['height']}, {d['mode']}, {stats['patches']} patches at "
             f"resolution {stats['resolution']}, {d['backend']}, {d['seconds']:.1f} s{extra})")
 
 
 def run(args: argparse.Namespace, ui: UI | None = None) -> int:
     """Body of ``trispline render``; ``ui`` is the command line's output helper (made if None)."""
-    from ..render import draw, write_png
+    from ..render import caption_text, draw, write_png
 
     ui = ui if ui is not None else UI(args)
     out = check_output(args.output, (".png",), "the picture")
@@ -107,17 +127,19 @@ def run(args: argparse.Namespace, ui: UI | None = None) -> int:
     lines = {"auto": None, "on": True, "off": False}[args.patch_lines]
     t0 = time.perf_counter()
     with ui.stages(("draw", "write"), "render") as bar:
+        caption = caption_text(args.surface) if args.caption is None else args.caption
         pic = draw(surface, args.mode, mesh=mesh, view=args.view, size=args.size, resolution=args.resolution,
                    curvature=args.curvature, stripes=args.stripes, stripe_angle=args.stripe_angle,
-                   patch_lines=lines, title=args.title, backend=args.backend)
+                   patch_lines=lines, title=args.title, backend=args.backend, caption=caption or False)
         bar.done()
         write_png(pic.image, out)
         bar.done()
     seconds = time.perf_counter() - t0
     h, w = pic.image.shape[:2]
+    view = pic.stats["view"]
     data = dict(command="render", input=args.surface, output=str(out), outputs=[str(out)], mode=args.mode,
-                width=w, height=h, backend=pic.backend, view=[args.view.azimuth, args.view.elevation],
-                legend=list(pic.legend), stats=pic.stats, seconds=seconds)
+                width=w, height=h, backend=pic.backend, view=[view["azimuth"], view["elevation"]],
+                view_auto=view["auto"], caption=caption, legend=list(pic.legend), stats=pic.stats, seconds=seconds)
     ui.result(data, _text)
     return EXIT_OK
 

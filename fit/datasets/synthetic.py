@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import Delaunay
 
+from .checks import scan_arguments
+
 __all__ = ["HOLE_CENTRE", "HOLE_RADIUS", "ROTATION", "scan_height", "synthetic_scan"]
 
 #: Centre and radius of the hole in the (pre-rotation) xy-plane.
@@ -61,11 +63,7 @@ def synthetic_scan(
     V : (nv, 3) float64
     F : (nf, 3) int64, consistently oriented (counter-clockwise seen from +z before rotation)
     """
-    n_faces = int(n_faces)
-    if n_faces < 60:
-        raise ValueError(f"n_faces must be >= 60, got {n_faces}")
-    if not (np.isfinite(noise) and noise >= 0):
-        raise ValueError(f"noise must be finite and >= 0, got {noise}")
+    n_faces = scan_arguments(n_faces, noise, least=60)
     rng = np.random.default_rng(seed)
     area = np.pi * (1.0 - (HOLE_RADIUS**2 if hole else 0.0))
     h = float(np.sqrt(2.0 * area / (np.sqrt(3.0) / 2.0) / n_faces))  # hex spacing

@@ -1,10 +1,14 @@
 """Draw surfaces into pictures and write them as PNG files.
 
-    pic = draw(surface, "zebra", view="iso", size=(800, 600))      # Picture: image (h, w, 3) uint8, stats
-    render(surface, "zebra.png", "zebra")                          # the same, written to a file
+    pic = draw(surface, "zebra", size=(800, 600))      # Picture: image (h, w, 3) uint8, stats
+    render(surface, "zebra.png", "zebra")              # the same, written to a file
     render_panels([Panel(mesh=(V, F)), Panel(surface)], "pair.png")
     write_png(pic.image, "zebra.png")
 
+The defaults explain themselves: the view looks along the surface's mean normal
+(``view="auto"``), the zebra stripe count follows the picture's scale
+(``stripes=None``), and a dated caption (:mod:`.caption`) sits in the bottom
+right corner (``caption=True``; a string replaces it, ``False`` leaves it out).
 Every file is written atomically (:mod:`trispline.spline.util.atomic`); the output
 name is checked before anything is drawn.
 """
@@ -22,8 +26,9 @@ from trispline.spline.util.atomic import write_bytes
 from ..errors import RenderError
 from ..io.formats import IMAGE_FORMATS, check_export_path
 from .backends import choose, draw_scenes
-from .scene import Panel, Picture, check_mode, panel_scene
-from .view import View, parse_size, parse_view
+from .caption import caption_text
+from .scene import Panel, Picture, check_mode, panel_scene, panel_view
+from .view import AUTO, View, check_view, parse_size
 
 if TYPE_CHECKING:  # pragma: no cover
     from trispline.spline.surface import SplineSurface
@@ -31,34 +36,52 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["draw", "draw_panels", "render", "render_panels", "write_png"]
 
 
-def draw_panels(panels: Sequence[Panel], *, view: "str | View | Sequence[float]" = "iso",
-                size: "str | Sequence[int]" = (800, 600), backend: str | None = None) -> Picture:
+def _caption(caption: "str | bool") -> str | None:
+    """The caption to draw: the dated default for True, none for False or an empty string."""
+    if caption is True:
+        return caption_text()
+    return str(caption) if caption else None
+
+
+def draw_panels(panels: Sequence[Panel], *, view: "str | View | Sequence[float]" = AUTO,
+                size: "str | Sequence[int]" = (800, 600), backend: str | None = None,
+                caption: "str | bool" = True) -> Picture:
     """Draw several panels side by side into one picture of ``size`` (width, height).
 
-    Returns a :class:`Picture`; its ``stats`` has one dict per panel under ``"panels"``.
+    ``view="auto"`` is resolved once, on the first panel, and the automatic zebra stripe
+    count on the first zebra panel, so that panels side by side compare alike (a panel's
+    own ``view`` or ``stripes`` option wins). Returns a :class:`Picture`; its ``stats``
+    has one dict per panel under ``"panels"``.
     """
     if not panels:
         raise RenderError("nothing to draw: no panels")
     size = parse_size(size)
     plan = choose(backend)
-    v = parse_view(view)
-    built = [panel_scene(p, v, plan.use) for p in panels]
+    v = check_view(view)
+    shared = panel_view(panels[0], v)
+    panel_size = (size[0] // len(panels), size[1])
+    built: list[tuple[Any, dict]] = []
+    stripes = None  # the first automatic stripe count, for the zebra panels after it
+    for p in panels:
+        built.append(panel_scene(p, shared, plan.use, panel_size, auto=v == AUTO, stripes=stripes))
+        if stripes is None and built[-1][1].get("stripes_auto"):
+            stripes = built[-1][1]["stripes"]
     scenes = [sc for sc, _ in built]
-    image, used = draw_scenes(scenes, size, plan)
+    image, used = draw_scenes(scenes, size, plan, _caption(caption))
     legend = tuple(line for sc in scenes for line in sc.legend)
     return Picture(image, used, legend, dict(panels=[st for _, st in built]))
 
 
 def draw(surface: "SplineSurface", mode: str = "shaded", *, mesh: Any = None,
-         view: "str | View | Sequence[float]" = "iso", size: "str | Sequence[int]" = (800, 600),
-         resolution: int | None = None, curvature: str = "mean", stripes: float = 12.0,
+         view: "str | View | Sequence[float]" = AUTO, size: "str | Sequence[int]" = (800, 600),
+         resolution: int | None = None, curvature: str = "mean", stripes: float | None = None,
          stripe_angle: float = 45.0, patch_lines: bool | None = None, title: str | None = None,
-         backend: str | None = None) -> Picture:
+         backend: str | None = None, caption: "str | bool" = True) -> Picture:
     """Draw one picture of ``surface`` (see :func:`render`); returns a :class:`Picture`."""
     check_mode(mode)
     pic = draw_panels([Panel(surface, mode, mesh, title, dict(
         resolution=resolution, curvature=curvature, stripes=stripes, stripe_angle=stripe_angle,
-        patch_lines=patch_lines))], view=view, size=size, backend=backend)
+        patch_lines=patch_lines))], view=view, size=size, backend=backend, caption=caption)
     return Picture(pic.image, pic.backend, pic.legend, pic.stats["panels"][0])
 
 
@@ -73,10 +96,10 @@ def write_png(image: np.ndarray, path: str | os.PathLike) -> Path:
 
 
 def render(surface: "SplineSurface", path: str | os.PathLike, mode: str = "shaded", *, mesh: Any = None,
-           view: "str | View | Sequence[float]" = "iso", size: "str | Sequence[int]" = (800, 600),
-           resolution: int | None = None, curvature: str = "mean", stripes: float = 12.0,
+           view: "str | View | Sequence[float]" = AUTO, size: "str | Sequence[int]" = (800, 600),
+           resolution: int | None = None, curvature: str = "mean", stripes: float | None = None,
            stripe_angle: float = 45.0, patch_lines: bool | None = None, title: str | None = None,
-           backend: str | None = None) -> Path:
+           backend: str | None = None, caption: "str | bool" = True) -> Path:
     """Render ``surface`` to the PNG file ``path`` (written atomically); returns the path.
 
     Parameters
@@ -84,23 +107,29 @@ def render(surface: "SplineSurface", path: str | os.PathLike, mode: str = "shade
     mode : one of :data:`~trispline.fit.render.MODES`
     mesh : data mesh for ``deviation``: ``(V, F)``, a trimesh or a file path
         (default: the fit's data vertices stored in the surface file)
-    view : ``"iso" | "top" | "front" | "side"``, ``"azimuth,elevation"`` or a pair (degrees)
+    view : ``"auto"`` (default: along the surface's mean normal, from the side it points to),
+        ``"iso" | "top" | "front" | "side"``, ``"azimuth,elevation"`` or a pair (degrees)
     size : ``(width, height)`` or ``"WxH"`` in pixels
     resolution : samples per patch edge (default: about 1.7M triangles, at most 8)
     curvature : ``"mean"`` or ``"gaussian"`` (mode ``curvature``)
-    stripes, stripe_angle : zebra tube count per bounding-box diagonal and direction (degrees)
+    stripes : zebra tube spacings per bounding-box diagonal (default None: the most, up to
+        12, that keep stripe pairs 8 px wide on 75% of the surface: no aliasing into noise)
+    stripe_angle : direction of the zebra tubes on screen (degrees)
     patch_lines : draw patch boundaries (default: up to ``PATCH_LINES_MAX`` patches)
     backend : ``"auto"`` (PyVista, else matplotlib), ``"pyvista"`` or ``"matplotlib"``
+    caption : True (default: date and trispline version in the bottom right corner),
+        a string to write there instead, or False for none
     """
     check_export_path(path, IMAGE_FORMATS)
     pic = draw(surface, mode, mesh=mesh, view=view, size=size, resolution=resolution, curvature=curvature,
-               stripes=stripes, stripe_angle=stripe_angle, patch_lines=patch_lines, title=title, backend=backend)
+               stripes=stripes, stripe_angle=stripe_angle, patch_lines=patch_lines, title=title, backend=backend,
+               caption=caption)
     return write_png(pic.image, path)
 
 
 def render_panels(panels: Sequence[Panel], path: str | os.PathLike, *,
-                  view: "str | View | Sequence[float]" = "iso", size: "str | Sequence[int]" = (1200, 500),
-                  backend: str | None = None) -> Path:
+                  view: "str | View | Sequence[float]" = AUTO, size: "str | Sequence[int]" = (1200, 500),
+                  backend: str | None = None, caption: "str | bool" = True) -> Path:
     """Render several :class:`Panel` side by side to the PNG file ``path`` (atomically)."""
     check_export_path(path, IMAGE_FORMATS)
-    return write_png(draw_panels(panels, view=view, size=size, backend=backend).image, path)
+    return write_png(draw_panels(panels, view=view, size=size, backend=backend, caption=caption).image, path)

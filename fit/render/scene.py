@@ -1,11 +1,12 @@
 """What a picture shows, independent of the backend that draws it: layers, panels, legends.
 
-    scene, stats = panel_scene(Panel(surface, "zebra"), parse_view("iso"), backend="pyvista")
+    scene, stats = panel_scene(Panel(surface, "zebra"), "auto", backend="pyvista", size=(800, 600))
 
 A :class:`Scene` is a list of :class:`Layer` (shaded triangles, line segments or
 points, each with its colouring) plus the view, the title, the legend lines and the
 colour bar; :mod:`.backends` turn scenes into pixels. One builder per mode adds
-its colouring and its statistics (stripe spacing, curvature range, deviation).
+its colouring and its statistics (stripe count and spacing, curvature range,
+deviation). Lengths are in the surface's own coordinates, called "model units".
 """
 from __future__ import annotations
 
@@ -19,33 +20,38 @@ from trispline.spline.index import DEGREE, NCTRL, lattice_edges
 from ..errors import RenderError
 from .deviation import as_mesh, deviation, stored_data_mesh
 from .geometry import CURVATURES
-from .sampling import SurfaceSample, auto_resolution, patch_curves, sample_surface
-from .view import View, parse_view
-from .zebra import stripe_function, zebra_light
+from .sampling import SurfaceSample, auto_resolution, patch_curves, reference_sample, sample_surface
+from .view import AUTO, View, check_view, frame, resolve_view
+from .zebra import MIN_STRIPE_PIXELS, STRIPE_AREA_FRACTION, auto_stripes, stripe_function, zebra_light
 
 if TYPE_CHECKING:  # pragma: no cover
     from trispline.spline.surface import SplineSurface
 
 __all__ = [
-    "MODES", "PATCH_LINES_MAX", "CURVATURE_PERCENTILE", "SURFACE_RGB", "DATA_RGB", "NET_RGB", "BACKGROUND",
-    "NAN_RGB", "STRIPE_RGB", "Layer", "Scene", "Panel", "Picture", "check_mode", "panel_scene",
-    "surface_scene", "wrap_legend",
+    "MODES", "PATCH_LINES_MAX", "CURVATURE_PERCENTILE", "UNIT", "SURFACE_RGB", "BACK_RGB", "DATA_RGB", "NET_RGB",
+    "BACKGROUND", "NAN_RGB", "STRIPE_RGB", "CAPTION_RGB", "Layer", "Scene", "Panel", "Picture", "check_mode",
+    "panel_view", "panel_scene", "surface_scene", "wrap_legend",
 ]
 
 MODES = ("shaded", "zebra", "curvature", "deviation", "controlnet")
 #: Patch boundaries are drawn by default up to this many patches.
 PATCH_LINES_MAX = 2000
-#: Robust colour range of curvature maps: this percentile of |value|.
+#: Robust colour range of curvature maps: this percentile of |value| on the reference sample.
 CURVATURE_PERCENTILE = 98.0
+#: How legends name the surface's length unit (whatever its coordinates are in).
+UNIT = "model unit"
 
-#: Colours (RGB in [0, 1]) of the surface, a data mesh, the control net, the background,
-#: undefined values, and the white and black zebra stripes; both backends draw with them.
+#: Colours (RGB in [0, 1]) of the surface's front (the side its normal points to) and
+#: back (shaded mode), a data mesh, the control net, the background, undefined values,
+#: the white and black zebra stripes and the caption; both backends draw with them.
 SURFACE_RGB = (0.55, 0.70, 0.95)
+BACK_RGB = (0.85, 0.62, 0.42)
 DATA_RGB = (0.80, 0.78, 0.72)
 NET_RGB = (0.75, 0.12, 0.10)
 BACKGROUND = (1.0, 1.0, 1.0)
 NAN_RGB = (0.6, 0.6, 0.6)
 STRIPE_RGB = ((0.97, 0.97, 0.97), (0.08, 0.08, 0.08))
+CAPTION_RGB = (0.35, 0.35, 0.35)
 
 
 @dataclass
@@ -53,8 +59,9 @@ class Layer:
     """One thing to draw: ``points (m, 3)`` and ``cells`` (``(t, 3)`` triangles or ``(s, 2)`` segments).
 
     A ``"surface"`` is coloured by ``scalars (m,)`` through ``cmap``/``clim``, by
-    ``stripes (m,)`` (the highlight coordinate) or in ``color``; ``normals (m, 3)``
-    smooth its shading. ``width`` is the line width or point size.
+    ``stripes (m,)`` (the highlight coordinate) or in ``color`` (``back``, if given, on
+    triangles seen from behind); ``normals (m, 3)`` smooth its shading. ``width`` is
+    the line width or point size.
     """
 
     kind: str                      # "surface" | "lines" | "points"
@@ -62,6 +69,7 @@ class Layer:
     cells: np.ndarray | None = None
     normals: np.ndarray | None = None
     color: tuple = SURFACE_RGB
+    back: tuple | None = None
     scalars: np.ndarray | None = None
     stripes: np.ndarray | None = None
     cmap: str = "RdBu_r"
@@ -90,7 +98,7 @@ class Panel:
     Give ``surface`` (any of :data:`MODES`) or only ``mesh`` (a data mesh ``(V, F)``,
     drawn flat with its edges, e.g. the scan next to its fit). ``options`` go to
     :func:`~trispline.fit.render.draw` (``stripes``, ``stripe_angle``, ``curvature``,
-    ``resolution``, ``patch_lines``, ``view``).
+    ``resolution``, ``patch_lines``, ``view``: this panel's own view).
     """
 
     surface: Any = None
@@ -143,17 +151,40 @@ def _symmetric_clim(values: np.ndarray, percentile: float) -> float:
     return c if c > 0 else 1.0
 
 
-def panel_scene(panel: Panel, view: View, backend: str) -> tuple[Scene, dict]:
-    """The scene and statistics of ``panel``; ``view`` unless its options name one."""
+def panel_view(panel: Panel, view: "str | View") -> View:
+    """``view`` as a :class:`View`; ``"auto"`` faces the panel's surface (its reference sample) or mesh."""
+    v = check_view(view)
+    if not isinstance(v, str):
+        return v
+    if panel.surface is None:
+        return resolve_view(AUTO, *as_mesh(panel.mesh))
+    ref = reference_sample(panel.surface, curvature=False)
+    return resolve_view(AUTO, ref.points, ref.triangles)
+
+
+def panel_scene(panel: Panel, view: "str | View", backend: str, size: tuple[int, int], *,
+                auto: bool = False, stripes: float | None = None) -> tuple[Scene, dict]:
+    """The scene and statistics of ``panel`` drawn ``size = (width, height)`` pixels large.
+
+    Seen from ``view`` (a :class:`View` or ``"auto"``) unless the panel's options name
+    one; ``auto`` says that ``view`` was chosen automatically (reported in the stats).
+    ``stripes``: the automatic zebra stripe count another panel chose, used instead of
+    this panel's own (so that side-by-side panels compare alike).
+    """
     opts = dict(panel.options)
     unknown = sorted(set(opts) - set(_PANEL_OPTIONS))
     if unknown:
         raise RenderError(f"unknown render options: {', '.join(unknown)}")
-    own_view = parse_view(opts.pop("view", view))
+    spec = check_view(opts.pop("view", view))
+    own = panel_view(panel, spec)
+    auto = spec == AUTO or (auto and "view" not in panel.options)
     if panel.surface is None:
-        return _mesh_scene(panel.mesh, own_view, panel.title)
-    return surface_scene(panel.surface, panel.mode, mesh=panel.mesh, view=own_view, backend=backend,
-                         title=panel.title, **opts)
+        scene, stats = _mesh_scene(panel.mesh, own, panel.title)
+    else:
+        scene, stats = surface_scene(panel.surface, panel.mode, mesh=panel.mesh, view=own, backend=backend,
+                                     size=size, title=panel.title, auto_stripes=stripes, **opts)
+    stats["view"] = dict(azimuth=own.azimuth, elevation=own.elevation, roll=own.roll, auto=auto)
+    return scene, stats
 
 
 def _mesh_scene(mesh: Any, view: View, title: str | None) -> tuple[Scene, dict]:
@@ -166,10 +197,14 @@ def _mesh_scene(mesh: Any, view: View, title: str | None) -> tuple[Scene, dict]:
 
 
 def surface_scene(surface: "SplineSurface", mode: str, *, mesh: Any = None, view: View, backend: str,
-                  resolution: int | None = None, curvature: str = "mean", stripes: float = 12.0,
-                  stripe_angle: float = 45.0, patch_lines: bool | None = None, title: str | None = None
-                  ) -> tuple[Scene, dict]:
-    """The scene of ``surface`` in ``mode`` and the picture's statistics (see ``draw``)."""
+                  size: tuple[int, int], resolution: int | None = None, curvature: str = "mean",
+                  stripes: float | None = None, stripe_angle: float = 45.0, patch_lines: bool | None = None,
+                  title: str | None = None, auto_stripes: float | None = None) -> tuple[Scene, dict]:
+    """The scene of ``surface`` in ``mode`` seen from ``view``, ``size`` pixels large, and its statistics.
+
+    The options are those of :func:`~trispline.fit.render.draw`; ``auto_stripes`` is the
+    count to use when ``stripes`` is None (None: this picture's own, :func:`.zebra.auto_stripes`).
+    """
     check_mode(mode)
     if curvature not in CURVATURES:
         raise RenderError(f"unknown curvature {curvature!r}: use one of {', '.join(CURVATURES)}")
@@ -179,16 +214,19 @@ def surface_scene(surface: "SplineSurface", mode: str, *, mesh: Any = None, view
     s = sample_surface(surface, r, curvature=(mode == "curvature"))
     stats: dict[str, Any] = dict(patches=nf, resolution=r, samples=int(s.points.shape[0]),
                                  triangles=int(s.triangles.shape[0]))
-    frame = s.points[np.isfinite(s.points).all(1)]
-    scene = Scene([Layer("surface", s.points, s.triangles, normals=s.normals)], frame, view,
+    frame_points = s.points[np.isfinite(s.points).all(1)]
+    scene = Scene([Layer("surface", s.points, s.triangles, normals=s.normals)], frame_points, view,
                   title or f"{mode}: {nf} quintic patches", [])
     if mode in ("shaded", "controlnet"):
         head = "shaded (analytic normals)" if mode == "shaded" else "control net over the shaded surface"
+        if mode == "shaded":
+            scene.layers[0].back = BACK_RGB
+            head += ", blue front, tan back"
         scene.legend.append(f"{head}; {r}x{r} samples per patch")
     elif mode == "zebra":
-        _zebra(scene, s, float(stripes), float(stripe_angle), stats)
+        _zebra(scene, s, size, stripes, auto_stripes, float(stripe_angle), stats)
     elif mode == "curvature":
-        _curvature(scene, s, curvature, stats)
+        _curvature(scene, s, reference_sample(surface), curvature, stats)
     else:
         _deviation(scene, s, data, stats)
     if mode == "controlnet":
@@ -209,32 +247,48 @@ def _deviation_mesh(surface: "SplineSurface", mesh: Any) -> tuple[np.ndarray, np
     return data
 
 
-def _zebra(scene: Scene, s: SurfaceSample, stripes: float, angle: float, stats: dict) -> None:
-    """Colour by highlight lines, unlit (the stripes are the shading)."""
+def _zebra(scene: Scene, s: SurfaceSample, size: tuple[int, int], stripes: float | None, shared: float | None,
+           angle: float, stats: dict) -> None:
+    """Colour by highlight lines, unlit (the stripes are the shading); ``stripes`` None: automatic
+    (``shared``, if given, else this picture's :func:`.zebra.auto_stripes`)."""
+    _, half_height = frame(scene.frame, scene.view, size)
+    count, width_one = auto_stripes(s.points, s.normals, s.triangles, scene.view, size[1] / (2 * half_height), angle)
+    auto = stripes is None
+    stripes = float(stripes) if not auto else count if shared is None else float(shared)
     light = zebra_light(s.points, scene.view, stripes=stripes, angle=angle)
     layer = scene.layers[0]
     layer.stripes, layer.lit = stripe_function(s.points, s.normals, light), False
-    stats.update(stripe_spacing=light.spacing, stripes=stripes, stripe_angle=angle,
-                 panel_distance=float(light.height - (s.points @ light.facing).max()))
-    scene.legend += [f"zebra: highlight lines of the analytic normals, {stripes:g} tube spacings per "
-                     f"bounding-box diagonal (spacing {_fmt(light.spacing)}), tubes at {angle:g} deg",
-                     "continuous stripes = C1; broken stripes = a kink"]
+    pixels = width_one / stripes
+    stats.update(stripe_spacing=light.spacing, stripes=stripes, stripes_auto=auto, stripe_pixels=pixels,
+                 stripe_angle=angle, panel_distance=float(light.height - (s.points @ light.facing).max()))
+    how = "automatic" if auto else "set"
+    scene.legend += ["zebra: highlight lines of the analytic normals (broken stripes = a kink)",
+                     f"{stripes:g} stripe pairs per diagonal ({how}), >= {pixels:.3g} px wide on "
+                     f"{100 * STRIPE_AREA_FRACTION:g}% of the area"]
+    if pixels < MIN_STRIPE_PIXELS:
+        scene.legend.append(f"narrower than {MIN_STRIPE_PIXELS:g} px: stripes alias (fewer stripes, larger picture)")
 
 
-def _curvature(scene: Scene, s: SurfaceSample, kind: str, stats: dict) -> None:
-    """Colour by mean or Gaussian curvature, range symmetric at :data:`CURVATURE_PERCENTILE`."""
+def _curvature(scene: Scene, s: SurfaceSample, ref: SurfaceSample, kind: str, stats: dict) -> None:
+    """Colour by mean or Gaussian curvature, range symmetric at :data:`CURVATURE_PERCENTILE` of
+    the reference sample ``ref`` (so that it does not change with the picture's resolution)."""
     vals = s.mean_curvature if kind == "mean" else s.gaussian_curvature
-    c = _symmetric_clim(vals, CURVATURE_PERCENTILE)
+    ref_vals = ref.mean_curvature if kind == "mean" else ref.gaussian_curvature
+    c = _symmetric_clim(ref_vals, CURVATURE_PERCENTILE)
     layer = scene.layers[0]
     layer.scalars, layer.clim, layer.cmap = vals, (-c, c), "RdBu_r"
-    finite = vals[np.isfinite(vals)]
+    finite = ref_vals[np.isfinite(ref_vals)]
+    symbol, unit = ("H", f"1/{UNIT}") if kind == "mean" else ("K", f"1/{UNIT}^2")
     label = "mean curvature H" if kind == "mean" else "Gaussian curvature K"
-    scene.bar = ("RdBu_r", (-c, c), "H, 1/length" if kind == "mean" else "K, 1/length^2")
-    stats.update(curvature=kind, clim=c, min=float(finite.min()) if finite.size else None,
-                 max=float(finite.max()) if finite.size else None)
-    scene.legend += [f"{label} from the analytic 1st and 2nd derivatives ({'(k1+k2)/2' if kind == 'mean' else 'k1 k2'})",
-                     f"colour range +-{_fmt(c)} ({CURVATURE_PERCENTILE:g}th percentile of the absolute value); "
-                     f"min {_fmt(stats['min'])}, max {_fmt(stats['max'])}"]
+    scene.bar = ("RdBu_r", (-c, c), f"{symbol} [{unit}]")
+    per_patch = (ref.resolution + 1) * (ref.resolution + 2) // 2
+    stats.update(curvature=kind, clim=c, unit=unit, percentile=CURVATURE_PERCENTILE,
+                 min=float(finite.min()) if finite.size else None, max=float(finite.max()) if finite.size else None,
+                 reference_samples=int(ref_vals.size))
+    scene.legend += [f"{label} = {'(k1+k2)/2' if kind == 'mean' else 'k1 k2'} in {unit} (the surface's unit)",
+                     f"colour range +-{_fmt(c)}: {CURVATURE_PERCENTILE:g}th percentile of abs({symbol}) at "
+                     f"{per_patch} fixed points per patch",
+                     f"(the same at any resolution); min {_fmt(stats['min'])}, max {_fmt(stats['max'])}"]
 
 
 def _deviation(scene: Scene, s: SurfaceSample, data: tuple[np.ndarray, np.ndarray], stats: dict) -> None:
@@ -247,10 +301,10 @@ def _deviation(scene: Scene, s: SurfaceSample, data: tuple[np.ndarray, np.ndarra
     c = m if m > 0 else 1.0
     layer = scene.layers[0]
     layer.scalars, layer.clim, layer.cmap = d, (-c, c), "PuOr_r"
-    scene.bar = ("PuOr_r", (-c, c), "deviation")
+    scene.bar = ("PuOr_r", (-c, c), f"deviation [{UNIT}s]")
     stats.update(max_abs=m, rms=rms, data_vertices=int(data[0].shape[0]), data_triangles=int(data[1].shape[0]),
                  relative_max=m / diag if diag > 0 else None)
-    scene.legend += ["deviation: signed distance surface -> data mesh (+ along the data face normal)",
+    scene.legend += [f"deviation in {UNIT}s: signed distance surface -> data (+ along its normals)",
                      f"max abs {_fmt(m)} ({_fmt(100 * m / diag) if diag > 0 else '?'}% of the diagonal), "
                      f"RMS {_fmt(rms)}"]
 

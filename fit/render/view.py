@@ -1,11 +1,17 @@
 """Where the camera looks from and how big the picture is: views, sizes, framing.
 
     parse_view("iso"); parse_view("-60,30"); parse_view((-60, 30))   # View(azimuth, elevation)
-    mean_normal_view(V, F)                                            # facing a mesh's mean normal
+    check_view("auto")                                                # "auto" or a View
+    facing_view(V, F)                                                 # along a mesh's mean normal
+    resolve_view("auto", V, F)                                        # the default view: facing_view
+    mean_normal_view(V, F)                                            # the normal's azimuth, 30 deg up
     parse_size("800x600")                                             # (width, height)
 
 Pictures are parallel projections (no perspective), so a view is a direction
-only; :func:`frame` places and scales the camera so that the object fills its box.
+(and a roll about it) only; :func:`frame` places and scales the camera so that the
+object fills its box. The default view, ``"auto"``, looks along the area-weighted
+mean normal of what is drawn, from the side the normal points to, so that a scan
+shows its front whichever way it was rotated.
 """
 from __future__ import annotations
 
@@ -14,13 +20,23 @@ from typing import Sequence
 
 import numpy as np
 
+from trispline.spline.tolerances import TINY
+
 from ..errors import RenderError
 
-__all__ = ["VIEWS", "MAX_SIDE", "View", "parse_view", "parse_size", "mean_normal_view", "frame"]
+__all__ = [
+    "AUTO", "VIEWS", "MAX_SIDE", "View", "parse_view", "check_view", "resolve_view", "parse_size", "mean_normal",
+    "facing_view", "mean_normal_view", "frame",
+]
 
 #: Named views: (azimuth, elevation) in degrees; the camera looks at the surface from
 #: direction (cos el cos az, cos el sin az, sin el), z up.
 VIEWS = {"iso": (-60.0, 30.0), "top": (-90.0, 90.0), "front": (-90.0, 0.0), "side": (0.0, 0.0)}
+#: The default view: along the mean normal of what is drawn (:func:`facing_view`).
+AUTO = "auto"
+#: :func:`facing_view` keeps world z up on screen unless the normal is within this many
+#: degrees of vertical; there it keeps world y up (as the ``top`` view does).
+STEEP_DEGREES = 30.0
 #: Largest picture side (pixels).
 MAX_SIDE = 8192
 #: Normalised picture box the object is fitted into (left, right, bottom, top), with and
@@ -30,10 +46,12 @@ _BOX = {False: (0.03, 0.97, 0.17, 0.90), True: (0.03, 0.80, 0.17, 0.90)}
 
 @dataclass(frozen=True)
 class View:
-    """A camera direction: ``azimuth`` and ``elevation`` in degrees (z up)."""
+    """A camera direction: ``azimuth`` and ``elevation`` in degrees (z up), turned by ``roll``
+    degrees about the viewing direction (counter-clockwise on screen)."""
 
     azimuth: float
     elevation: float
+    roll: float = 0.0
 
     @property
     def toward(self) -> np.ndarray:
@@ -43,9 +61,13 @@ class View:
 
     @property
     def up(self) -> np.ndarray:
-        """(3,) screen up (the derivative of :attr:`toward` by elevation; y at the top view)."""
+        """(3,) screen up: the derivative of :attr:`toward` by elevation (y at the top view), rolled."""
         a, e = np.radians(self.azimuth), np.radians(self.elevation)
-        return np.array([-np.sin(e) * np.cos(a), -np.sin(e) * np.sin(a), np.cos(e)])
+        up = np.array([-np.sin(e) * np.cos(a), -np.sin(e) * np.sin(a), np.cos(e)])
+        if self.roll == 0:
+            return up
+        r = np.radians(self.roll)
+        return np.cos(r) * up - np.sin(r) * np.cross(up, self.toward)
 
     @property
     def right(self) -> np.ndarray:
@@ -85,6 +107,19 @@ def parse_view(view: "str | View | Sequence[float]") -> View:
     return View(az, el)
 
 
+def check_view(view: "str | View | Sequence[float]") -> "View | str":
+    """:data:`AUTO` or the :class:`View` of :func:`parse_view`; raises on anything else."""
+    if isinstance(view, str) and view.strip().lower() == AUTO:
+        return AUTO
+    return parse_view(view)
+
+
+def resolve_view(view: "str | View | Sequence[float]", V: np.ndarray, F: np.ndarray) -> View:
+    """The :class:`View` ``view`` names; :data:`AUTO` is :func:`facing_view` of ``V (nv, 3)``, ``F (nf, 3)``."""
+    v = check_view(view)
+    return facing_view(V, F) if isinstance(v, str) else v
+
+
 def parse_size(size: "str | Sequence[int]") -> tuple[int, int]:
     """``(width, height)`` in pixels from ``"WxH"`` or a pair; each 16..:data:`MAX_SIDE`."""
     if isinstance(size, str):
@@ -105,16 +140,52 @@ def parse_size(size: "str | Sequence[int]") -> tuple[int, int]:
     return w, h
 
 
-def mean_normal_view(V: np.ndarray, F: np.ndarray, elevation: float = 30.0) -> View:
-    """Look along the mean normal of the mesh ``V (nv, 3)``, ``F (nf, 3)`` from ``elevation`` degrees.
+def mean_normal(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """(3,) unit area-weighted mean normal of the triangles ``F (nf, 3)`` of ``V (nv, 3)``.
 
-    The azimuth is that of the area-weighted normal sum, so the camera faces the
-    side the surface faces, whichever way a scan was rotated; the default elevation
-    is that of the ``iso`` view, low enough for the relief to show.
+    Zeros where the sum vanishes (no area); on a closed surface, where the normals
+    cancel, the direction is round-off. Triangles with non-finite corners are left out.
     """
     V = np.asarray(V, np.float64)
     F = np.asarray(F, np.int64)
-    n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]).sum(0)
+    c = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    n = c[np.isfinite(c).all(1)].sum(0)
+    norm = float(np.linalg.norm(n))
+    return n / norm if norm > TINY else np.zeros(3)
+
+
+def facing_view(V: np.ndarray, F: np.ndarray) -> View:
+    """The default view of the mesh ``V (nv, 3)``, ``F (nf, 3)``: looking along its mean normal.
+
+    The camera sits on the side the area-weighted mean normal points to, so it sees
+    the front of a scan in any orientation (a height field from above, a face scan
+    from the front, an upside-down one from below). World z stays up on screen, or
+    world y where the normal is within :data:`STEEP_DEGREES` of vertical (so a
+    height field is seen as in the ``top`` view). The ``iso`` view where the mesh has
+    no area.
+    """
+    n = mean_normal(V, F)
+    if not n.any():
+        return parse_view("iso")
+    horizontal = float(np.hypot(n[0], n[1]))
+    azimuth = float(np.degrees(np.arctan2(n[1], n[0]))) if horizontal > 0 else -90.0
+    base = View(azimuth, float(np.degrees(np.arctan2(n[2], horizontal))))
+    if horizontal >= np.sin(np.radians(STEEP_DEGREES)):
+        return base  # z up: the elevation's own screen up
+    want = np.array([0.0, 1.0, 0.0]) - n[1] * n  # world y, projected onto the screen
+    want /= np.linalg.norm(want)
+    roll = float(np.degrees(np.arctan2(-(want @ base.right), want @ base.up)))
+    return View(base.azimuth, base.elevation, round(roll, 9) + 0.0)  # round-off of an exact view: none
+
+
+def mean_normal_view(V: np.ndarray, F: np.ndarray, elevation: float = 30.0) -> View:
+    """Look from the azimuth of the mean normal of ``V (nv, 3)``, ``F (nf, 3)``, ``elevation`` degrees up.
+
+    Unlike :func:`facing_view` the elevation is fixed (the ``iso`` view's by
+    default, low enough for the relief to show), so it suits surfaces whose
+    normal points up; one facing down is seen from behind.
+    """
+    n = mean_normal(V, F)
     return parse_view((float(np.degrees(np.arctan2(n[1], n[0]))), float(elevation)))
 
 

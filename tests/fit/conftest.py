@@ -45,3 +45,12 @@ def accuracy_bench() -> ModuleType:
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
+
+
+@pytest.fixture(scope="session")
+def real_mesh() -> tuple[np.ndarray, np.ndarray]:
+    """``(V, F)``: the generated real-world-like scan (:func:`~trispline.fit.datasets.face.face_scan`,
+    about 4000 triangles: ragged outline, one hole, irregular sampling, noise), in every clone."""
+    from trispline.fit.datasets.face import face_scan
+
+    return face_scan(4000, seed=0)

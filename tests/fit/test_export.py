@@ -1,4 +1,4 @@
-"""Export (trimesh formats, control net, surface files, pictures), atomic writes, synthetic scan.
+"""Export (trimesh formats, control net, surface files, pictures), atomic writes, generated scans.
 
 Surfaces here are built without a fit (random free points through the C1
 propagation map), so these tests need no JAX.
@@ -14,6 +14,7 @@ import trimesh
 
 from trispline.fit.io import export as ex
 from trispline.spline.util.atomic import AtomicOutputs, OutputError, atomic_path, write_text
+from trispline.fit.datasets.face import EYE_AXES, EYE_CENTRE, ROTATION, face_depth, face_scan
 from trispline.fit.datasets.synthetic import HOLE_RADIUS, synthetic_scan
 from trispline.param import validate_mesh
 from trispline.spline.index import CORNER, DEGREE, EXPONENTS, lattice_triangles
@@ -166,18 +167,20 @@ def test_render_png(surface, tmp_path):
 
 
 def test_png_is_drawn_by_render_facing_the_mean_normal(surface, tmp_path):
-    """One renderer: the exported picture is trispline.fit.render's shaded picture, seen along
-    the mean normal of the corner mesh, with the options passed on."""
+    """One renderer: the exported picture is trispline.fit.render's shaded picture with its
+    defaults (seen along the surface's mean normal), with the options passed on."""
     from PIL import Image
 
     from trispline.fit import render as rd
 
     p = ex.export_surface(surface, tmp_path / "s.png", resolution=2, size=(240, 160), backend="matplotlib")
-    corners = surface.tessellate(1)
-    want = rd.draw(surface, "shaded", view=rd.mean_normal_view(corners.vertices, corners.triangles),
-                   resolution=2, size=(240, 160), backend="matplotlib").image
+    pic = rd.draw(surface, "shaded", resolution=2, size=(240, 160), backend="matplotlib")
+    ref = rd.reference_sample(surface, curvature=False)
+    assert pic.stats["view"]["auto"]
+    np.testing.assert_allclose(rd.parse_view((pic.stats["view"]["azimuth"], pic.stats["view"]["elevation"])).toward,
+                               rd.mean_normal(ref.points, ref.triangles), atol=1e-12)
     with Image.open(p) as im:
-        np.testing.assert_array_equal(np.asarray(im.convert("RGB")), want)
+        np.testing.assert_array_equal(np.asarray(im.convert("RGB")), pic.image)
     p = ex.export_surface(surface, tmp_path / "z.png", resolution=2, size=(240, 160), backend="matplotlib",
                           mode="zebra", view="top")
     with Image.open(p) as im:
@@ -272,15 +275,21 @@ def test_atomic_path_keeps_suffix_and_sets_normal_permissions(tmp_path):
         write_text(tmp_path, "x")
 
 
-# -------------------------------------------------------------------- synthetic scan
+# ------------------------------------------------------------ synthetic and face scans
+#: The generated scans: (generator, faces asked for, allowed relative miss of the face count).
+SCANS = [pytest.param(synthetic_scan, n, 0.3, id=f"synthetic-{n}") for n in (60, 300, 1500)] + [
+    pytest.param(face_scan, n, 0.15, id=f"face-{n}") for n in (300, 4000)]
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
-@pytest.mark.parametrize("n", [60, 300, 1500])
-def test_synthetic_scan_is_an_open_disk_with_one_hole(n, seed):
-    V, F = synthetic_scan(n, seed=seed)
+@pytest.mark.parametrize("make,n,slack", SCANS)
+def test_generated_scans_are_open_disks_with_one_hole(make, n, slack, seed):
+    V, F = make(n, seed=seed)
     vm = validate_mesh(V, F)
     assert vm.report["holes"] == 1 and vm.report["components"] == 1 and vm.messages == []
-    assert 0.7 * n < F.shape[0] < 1.3 * n
+    assert (1 - slack) * n < F.shape[0] < (1 + slack) * n
     assert V.dtype == np.float64 and F.dtype == np.int64
+    assert validate_mesh(*make(n, seed=seed, hole=False)).report["holes"] == 0
 
 
 def test_synthetic_scan_properties():
@@ -303,3 +312,33 @@ def test_synthetic_scan_properties():
         synthetic_scan(10)
     with pytest.raises(ValueError, match="noise"):
         synthetic_scan(100, noise=-1)
+
+
+def test_face_scan_is_irregular_noisy_and_faces_its_own_way():
+    from trispline.fit.render import mean_normal
+
+    a, b = face_scan(2000, seed=5), face_scan(2000, seed=5)
+    np.testing.assert_array_equal(a[0], b[0])
+    np.testing.assert_array_equal(a[1], b[1])
+    V0, F0 = face_scan(2000, seed=5, noise=0.0)
+    Vn, Fn = face_scan(2000, seed=5, noise=0.002)
+    np.testing.assert_array_equal(F0, Fn)
+    P = V0 @ ROTATION  # back to the face plane (x, y, depth)
+    np.testing.assert_allclose(P[:, 2], face_depth(P[:, :2]), atol=1e-12)
+    dz = (Vn - V0) @ ROTATION[:, 2]
+    assert 0.0015 < dz.std() < 0.0025 and np.abs((Vn - V0) @ ROTATION[:, :2]).max() < 1e-12  # along the view
+    # irregular sampling: edge lengths vary several times, denser in the middle
+    E = np.concatenate([F0[:, [0, 1]], F0[:, [1, 2]], F0[:, [2, 0]]])
+    length = np.linalg.norm(V0[E[:, 0]] - V0[E[:, 1]], axis=1)
+    assert np.percentile(length, 95) > 3 * np.percentile(length, 5)
+    mid = np.linalg.norm(P[E[:, 0], :2], axis=1) < 0.3
+    assert np.median(length[mid]) < 0.7 * np.median(length[~mid])
+    # the hole is the eye, empty; the face looks along ROTATION's depth axis (-y, turned)
+    e = np.hypot((P[:, 0] - EYE_CENTRE[0]) / EYE_AXES[0], (P[:, 1] - EYE_CENTRE[1]) / EYE_AXES[1])
+    assert (e > 1 - 1e-12).all()
+    n = mean_normal(V0, F0)
+    assert n @ ROTATION[:, 2] > 0.9 and n @ [0, -1, 0] > 0.85
+    with pytest.raises(ValueError, match="n_faces"):
+        face_scan(100)
+    with pytest.raises(ValueError, match="noise"):
+        face_scan(1000, noise=-1)

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from pathlib import Path
 
 import jax
 import numpy as np
@@ -14,12 +13,11 @@ jax.config.update("jax_enable_x64", True)
 
 from trispline.fit.stages import FIT_STAGES  # noqa: E402
 from trispline.fit.pipeline import DataPoints, FitResult, FitWeights, fit_surface  # noqa: E402
+from trispline.fit.datasets.cache import MISSING_DATA, find_data  # noqa: E402
 from trispline.fit.datasets.franke import exponential, sample_points  # noqa: E402
 from trispline.spline.bernstein import bary_grid  # noqa: E402
 from trispline.spline.testing.domains import orient_ccw, random_delaunay  # noqa: E402
 from trispline.spline.errors import InputError  # noqa: E402
-
-DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
 
 
 def domain_points(uv, faces):
@@ -185,15 +183,16 @@ def test_requires_x64():
     assert "X64" in out.stdout and "enable_x64" in out.stdout, out.stderr
 
 
-@pytest.mark.parametrize("name", ["snail.obj", "halftunnel.off", "lilium.obj"])
-def test_real_meshes(name):
-    path = DATA / name
-    if not path.exists():
-        pytest.skip(f"{path} not present")
+@pytest.mark.parametrize("name", [
+    "generated",  # fit.datasets.face.face_scan: in every clone
+    *(pytest.param(n, marks=pytest.mark.skipif(find_data(n) is None, reason=f"{n}: {MISSING_DATA}"))
+      for n in ("snail.obj", "halftunnel.off", "lilium.obj")),
+])
+def test_real_meshes(name, real_mesh):
     from trispline.fit.io import load_mesh
     from trispline.param import validate_mesh
 
-    V, F = load_mesh(path)
+    V, F = real_mesh if name == "generated" else load_mesh(find_data(name))
     vm = validate_mesh(V, F)
     res = fit_surface(vm.V, vm.F, param="harmonic")
     assert res.converged

@@ -1,19 +1,27 @@
 """Mesh loading: order-preserving round trips, polygons, vt, unreferenced vertices, errors."""
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import trimesh
 
+from trispline.fit.datasets.cache import MISSING_DATA, find_data
 from trispline.fit.io import MeshData, load_mesh, read_mesh
 from trispline.param import MeshError, UnreferencedVerticesWarning
 from trispline.param.testing import lift
 from trispline.spline.testing.domains import random_delaunay
 from trispline.spline.errors import InputError
 
-DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
+
+def test_generated_scan_round_trips(tmp_path, real_mesh):
+    """The generated real-world-like scan (every clone has it) through a file and back, order kept."""
+    V, F = real_mesh
+    path = tmp_path / "face.obj"
+    trimesh.Trimesh(V, F, process=False).export(path)
+    m = read_mesh(path)
+    np.testing.assert_array_equal(m.F, F)
+    np.testing.assert_allclose(m.V, V, rtol=0, atol=1e-6)
+    assert m.dropped == 0
 
 
 @pytest.fixture(scope="module")
@@ -134,9 +142,9 @@ def test_errors(tmp_path):
         read_mesh(tmp_path / "line.obj")
 
 
-@pytest.mark.skipif(not (DATA / "beetle.off").exists(), reason="../shared/data not present")
+@pytest.mark.skipif(find_data("beetle.off") is None, reason=f"beetle.off: {MISSING_DATA}")
 def test_beetle_keeps_coincident_vertices():
-    path = DATA / "beetle.off"
+    path = find_data("beetle.off")
     header = [ln.split() for ln in path.read_text().splitlines()[:3] if ln.strip() and not ln.startswith("#")]
     nv_file = int(header[1][0]) if header[0] == ["OFF"] else int(header[0][1])
     m = read_mesh(path)

@@ -1,19 +1,22 @@
-"""Every mesh in ../shared/data: valid ones fold-free under harmonic and LSCM, the pelvis rejected.
+"""Real meshes: valid ones fold-free under harmonic and LSCM, the pelvis rejected.
 
-Skipped cleanly when the folder is missing. Meshes above 20k faces are marked slow.
+The generated real-world-like scan (:func:`trispline.fit.datasets.face.face_scan`) runs in
+every clone; the meshes of ../shared/data (or their copy in the cache folder,
+:mod:`trispline.fit.datasets.cache`) where present, else they are skipped with the reason
+and the command that brings them (``pytest -ra`` lists them). Meshes above 20k faces are
+marked slow.
 """
 from __future__ import annotations
-
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from trispline.fit.datasets.cache import MISSING_DATA, find_data
+from trispline.fit.datasets.face import face_scan
 from trispline.fit.io import read_mesh
 from trispline.param import MeshError, fold_mask, harmonic_uv, parameterize, validate_mesh
 from trispline.spline.topology import Triangulation, signed_areas
 
-DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
 VALID = {  # name: (faces, holes)
     "snail.obj": (1653, 0),
     "halftunnel.off": (1568, 2),
@@ -24,31 +27,41 @@ VALID = {  # name: (faces, holes)
     "beetle.off": (38656, 10),
     "mountain.obj": (50562, 0),
 }
-needs_data = pytest.mark.skipif(not DATA.is_dir(), reason="../shared/data not present")
+#: The generated scan: its faces and holes (face_scan(4000, seed=0)).
+GENERATED = (4080, 1)
+
+
+def needs_data(name: str) -> pytest.MarkDecorator:
+    """Skip, with the reason and the command that brings the data, when ``name`` is in no data folder."""
+    return pytest.mark.skipif(find_data(name) is None, reason=f"{name}: {MISSING_DATA}")
 
 
 def data_mesh(name: str):
-    """``read_mesh`` of ``DATA / name``; skips the test when the file is not there."""
-    if not (DATA / name).exists():
-        pytest.skip(f"{name} not present")
-    return read_mesh(DATA / name)
+    """``read_mesh`` of the shared mesh ``name`` (the tests that call it are marked :func:`needs_data`)."""
+    return read_mesh(find_data(name))
 
 
 def _cases():
+    for method in ("harmonic", "lscm"):
+        yield pytest.param("generated", method, id=f"generated-{method}")
     for name, (nf, _) in VALID.items():
         for method in ("harmonic", "lscm"):
-            marks = [pytest.mark.slow] if nf > 20000 else []
+            marks = [needs_data(name)] + ([pytest.mark.slow] if nf > 20000 else [])
             yield pytest.param(name, method, marks=marks, id=f"{name}-{method}")
 
 
-@needs_data
 @pytest.mark.parametrize("name,method", list(_cases()))
 def test_data_mesh_fold_free(name, method):
-    m = data_mesh(name)
-    nf, holes = VALID[name]
-    assert m.F.shape[0] == nf
-    p = parameterize(m.V, m.F, method)
-    np.testing.assert_array_equal(p.faces, m.F)  # never reordered
+    if name == "generated":
+        V, F = face_scan(4000, seed=0)
+        nf, holes = GENERATED
+    else:
+        m = data_mesh(name)
+        V, F = m.V, m.F
+        nf, holes = VALID[name]
+    assert F.shape[0] == nf
+    p = parameterize(V, F, method)
+    np.testing.assert_array_equal(p.faces, F)  # never reordered
     Triangulation(p.uv, p.faces)
     fl, dg = fold_mask(p.uv, p.faces)
     assert not fl.any() and not dg.any()
@@ -56,7 +69,7 @@ def test_data_mesh_fold_free(name, method):
     assert np.all(np.isfinite([v for v in p.distortion.values()]))
 
 
-@needs_data
+@needs_data("beetle.off")
 @pytest.mark.slow
 def test_beetle_free_holes_fold_but_filled_holes_do_not():
     m = data_mesh("beetle.off")
@@ -69,7 +82,7 @@ def test_beetle_free_holes_fold_but_filled_holes_do_not():
     assert p.repaired is None and p.distortion["flipped_before_repair"] == 0
 
 
-@needs_data
+@needs_data("pelvis-registration-partial.obj")
 def test_pelvis_rejected():
     m = data_mesh("pelvis-registration-partial.obj")
     with pytest.raises(MeshError) as e:
@@ -84,7 +97,7 @@ def test_pelvis_rejected():
         validate_mesh(m.V, m.F, keep_largest=True)  # the largest component still has bowties
 
 
-@needs_data
+@needs_data("mountain.obj")
 @pytest.mark.slow
 def test_mountain_is_a_y_up_height_field():
     m = data_mesh("mountain.obj")

@@ -1,7 +1,7 @@
 """The two ways to turn scenes into pixels, and the choice between them.
 
     plan = choose("auto")                        # Plan: use "pyvista" or "matplotlib", and why
-    image, used = draw_scenes(scenes, (800, 600), plan)
+    image, used = draw_scenes(scenes, (800, 600), plan, caption="2025-06-01, trispline 0.1.0")
 
 ``auto`` draws with PyVista/VTK (:mod:`.pyvista`) and falls back to matplotlib
 (:mod:`.matplotlib`) with a :class:`~trispline.fit.errors.RenderFallbackWarning`
@@ -63,17 +63,20 @@ def choose(backend: str | None) -> Plan:
     return Plan("matplotlib" if reason is not None else "pyvista", want == "pyvista", reason)
 
 
-def draw_scenes(scenes: Sequence[Scene], size: tuple[int, int], plan: Plan) -> tuple[np.ndarray, str]:
-    """``(image (h, w, 3) uint8, backend used)`` of ``scenes`` side by side, following ``plan``."""
+def draw_scenes(scenes: Sequence[Scene], size: tuple[int, int], plan: Plan, caption: str | None = None
+                ) -> tuple[np.ndarray, str]:
+    """``(image (h, w, 3) uint8, backend used)`` of ``scenes`` side by side, following ``plan``,
+    with ``caption`` (if any) in the bottom right corner."""
     reason = plan.reason
     if plan.use == "pyvista":
         try:
-            return pyvista_backend.draw(scenes, size), "pyvista"
+            return pyvista_backend.draw(scenes, size, caption), "pyvista"
         except Exception as exc:  # noqa: BLE001 - VTK failed at run time (no OpenGL context, ...)
             if plan.strict:
                 raise
             reason = f"{type(exc).__name__}: {exc}"
     if reason is not None:
         warnings.warn(f"PyVista/VTK rendering is not available ({reason.splitlines()[0][:200]}); "
-                      f"drawing with matplotlib instead", RenderFallbackWarning, stacklevel=3)
-    return matplotlib_backend.draw(scenes, size), "matplotlib"
+                      f"drawing with matplotlib instead (coarser; for PyVista: pip install 'trispline[render]')",
+                      RenderFallbackWarning, stacklevel=3)
+    return matplotlib_backend.draw(scenes, size, caption), "matplotlib"

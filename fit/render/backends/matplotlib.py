@@ -3,8 +3,9 @@
     image = draw(scenes, (800, 600))        # (h, w, 3) uint8, the scenes side by side
 
 A painter's-algorithm parallel projection: triangles sorted far to near, each in
-one flat colour (the mean of its corners' scalars, stripes or normals), lit by a
-key light from the viewer's upper right.
+one flat colour (the mean of its corners' scalars, stripes or normals; a layer's
+``back`` colour where the triangle is seen from behind), lit by a key light from
+the viewer's upper right.
 """
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ import numpy as np
 
 from trispline.spline.tolerances import TINY
 
-from ..scene import BACKGROUND, NAN_RGB, STRIPE_RGB, Layer, Scene, wrap_legend
+from ..scene import BACKGROUND, CAPTION_RGB, NAN_RGB, STRIPE_RGB, Layer, Scene, wrap_legend
 from ..view import frame
 from ..zebra import stripe_pattern
 
@@ -29,8 +30,9 @@ _DPI = 100.0
 _KEY = np.array([0.3, 0.4, 1.0])
 
 
-def draw(scenes: Sequence[Scene], size: tuple[int, int]) -> np.ndarray:
-    """The ``scenes`` side by side in one ``(h, w, 3)`` uint8 picture of ``size = (w, h)``."""
+def draw(scenes: Sequence[Scene], size: tuple[int, int], caption: str | None = None) -> np.ndarray:
+    """The ``scenes`` side by side in one ``(h, w, 3)`` uint8 picture of ``size = (w, h)``,
+    ``caption`` (if any) in its bottom right corner."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -39,15 +41,23 @@ def draw(scenes: Sequence[Scene], size: tuple[int, int]) -> np.ndarray:
     FigureCanvasAgg(fig)
     n = len(scenes)
     for col, sc in enumerate(scenes):
-        _draw_scene(fig, sc, col, n, (w / n, h))
+        _draw_scene(fig, sc, col, n, (w / n, h), caption is not None)
+    if caption:
+        fig.text(0.995, 0.01, caption, ha="right", va="bottom", fontsize=_font((w / n, h)) * 0.62, color=CAPTION_RGB)
     fig.canvas.draw()
     img = np.asarray(fig.canvas.buffer_rgba())[..., :3]
     return np.ascontiguousarray(img, dtype=np.uint8)
 
 
-def _draw_scene(fig: "Figure", sc: Scene, col: int, n: int, sub: tuple[float, float]) -> None:
-    """Panel ``col`` of ``n``: its layers projected on screen, title, legend and colour bar."""
-    font = float(np.clip(sub[1] / 38, 7, 28)) * 0.75
+def _font(sub: tuple[float, float]) -> float:
+    """Title font size (points) of a panel ``sub = (w, h)`` pixels large."""
+    return float(np.clip(sub[1] / 38, 7, 28)) * 0.75
+
+
+def _draw_scene(fig: "Figure", sc: Scene, col: int, n: int, sub: tuple[float, float], captioned: bool) -> None:
+    """Panel ``col`` of ``n``: its layers projected on screen, title, legend (a row higher when
+    ``captioned``, leaving the bottom row to the caption) and colour bar."""
+    font = _font(sub)
     ax = fig.add_axes((col / n, 0.0, 1.0 / n, 1.0))
     ax.set_axis_off()
     focal, ps = frame(sc.frame, sc.view, (int(sub[0]), int(sub[1])), bar=sc.bar is not None)
@@ -64,7 +74,8 @@ def _draw_scene(fig: "Figure", sc: Scene, col: int, n: int, sub: tuple[float, fl
     ax.text(0.5, 0.985, sc.title, transform=ax.transAxes, ha="center", va="top", fontsize=font)
     if sc.legend:
         legend = sc.legend if sub[1] >= 300 else sc.legend[:1]
-        ax.text(0.01, 0.01, wrap_legend(legend, sub[0] / (0.6 * font * 0.62 * 1.39)), transform=ax.transAxes,
+        rise = captioned * 1.5 * font * 0.62 / 72 * _DPI / sub[1]  # one text row, as a fraction of the height
+        ax.text(0.01, 0.01 + rise, wrap_legend(legend, sub[0] / (0.6 * font * 0.62 * 1.39)), transform=ax.transAxes,
                 ha="left", va="bottom", fontsize=font * 0.62)
     if sc.bar is not None:
         _colour_bar(fig, sc.bar, col, n, font)
@@ -84,14 +95,22 @@ def _draw_layer(ax: "Axes", layer: Layer, xyz: np.ndarray, key: np.ndarray) -> N
         return
     T = layer.cells[np.isfinite(layer.points).all(1)[layer.cells].all(1)]
     T = T[np.argsort(xyz[:, 2][T].mean(1), kind="stable")]  # far (small depth) first
-    colors = _triangle_colours(layer, T, key)
+    colors = _triangle_colours(layer, T, key, _front(xy, T))
     ec = (0.3, 0.3, 0.3) if layer.edges else colors
     ax.add_collection(PolyCollection(xy[T], facecolors=colors, edgecolors=ec,
                                      linewidths=0.3 if layer.edges else 0.15, zorder=1))
 
 
-def _triangle_colours(layer: Layer, T: np.ndarray, key: np.ndarray) -> np.ndarray:
-    """``(t, 3)`` RGB of the triangles ``T (t, 3)``: stripes, colour-mapped scalars or flat, then lit."""
+def _front(xy: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """``(t,)`` True where the triangle ``T (t, 3)`` of the screen points ``xy (m, 2)`` is
+    counter-clockwise, i.e. seen from the side its normal points to."""
+    a, b, c = xy[T[:, 0]], xy[T[:, 1]], xy[T[:, 2]]
+    return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]) > 0
+
+
+def _triangle_colours(layer: Layer, T: np.ndarray, key: np.ndarray, front: np.ndarray) -> np.ndarray:
+    """``(t, 3)`` RGB of the triangles ``T (t, 3)``: stripes, colour-mapped scalars or flat (the
+    layer's ``back`` colour where not ``front (t,)``), then lit."""
     from matplotlib import colormaps
     from matplotlib.colors import Normalize
 
@@ -106,6 +125,8 @@ def _triangle_colours(layer: Layer, T: np.ndarray, key: np.ndarray) -> np.ndarra
         colors[~np.isfinite(sm)] = NAN_RGB
     else:
         colors = np.tile(np.asarray(layer.color, float), (T.shape[0], 1))
+        if layer.back is not None:
+            colors[~front] = layer.back
     if not layer.lit:
         return colors
     if layer.normals is not None:

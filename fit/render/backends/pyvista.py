@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any, Iterator, Sequence
 
 import numpy as np
 
-from ..scene import BACKGROUND, NAN_RGB, STRIPE_RGB, Layer, Scene, wrap_legend
+from ..scene import BACKGROUND, CAPTION_RGB, NAN_RGB, STRIPE_RGB, Layer, Scene, wrap_legend
 from ..view import frame
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -59,8 +59,9 @@ def _polydata(layer: Layer, keep: np.ndarray | None = None) -> "pyvista.PolyData
     return poly
 
 
-def draw(scenes: Sequence[Scene], size: tuple[int, int]) -> np.ndarray:
-    """The ``scenes`` side by side in one ``(h, w, 3)`` uint8 picture of ``size = (w, h)``."""
+def draw(scenes: Sequence[Scene], size: tuple[int, int], caption: str | None = None) -> np.ndarray:
+    """The ``scenes`` side by side in one ``(h, w, 3)`` uint8 picture of ``size = (w, h)``,
+    ``caption`` (if any) in its bottom right corner."""
     with _quiet_vtk():
         import pyvista as pv
 
@@ -70,24 +71,36 @@ def draw(scenes: Sequence[Scene], size: tuple[int, int]) -> np.ndarray:
             sub_size = (size[0] / len(scenes), size[1])
             for col, sc in enumerate(scenes):
                 pl.subplot(0, col)
-                _add_scene(pl, sc, col, sub_size)
+                _add_scene(pl, sc, col, sub_size, caption is not None)
+            if caption:
+                pl.add_text(caption, position="lower_right", font_size=_small_font(sub_size), color=CAPTION_RGB)
             img = pl.screenshot(return_img=True)
         finally:
             pl.close()
     return np.ascontiguousarray(img[..., :3], dtype=np.uint8)
 
 
-def _add_scene(pl: "pyvista.Plotter", sc: Scene, col: int, sub_size: tuple[float, float]) -> None:
-    """One panel: its layers, title, legend and a parallel camera fitted to its frame."""
-    font = int(np.clip(sub_size[1] / 45, 8, 24))
+def _font(sub_size: tuple[float, float]) -> int:
+    """Title font size of a panel ``sub_size = (w, h)`` pixels large."""
+    return int(np.clip(sub_size[1] / 45, 8, 24))
+
+
+def _small_font(sub_size: tuple[float, float]) -> int:
+    """Legend and caption font size of a panel."""
+    return max(7, int(_font(sub_size) * 0.7))
+
+
+def _add_scene(pl: "pyvista.Plotter", sc: Scene, col: int, sub_size: tuple[float, float], captioned: bool) -> None:
+    """One panel: its layers, title, legend (a row higher when ``captioned``, leaving the bottom
+    row to the caption) and a parallel camera fitted to its frame."""
     for layer in sc.layers:
         _add_layer(pl, layer, sc, col)
-    pl.add_text(sc.title, position="upper_edge", font_size=font, color="black")
+    pl.add_text(sc.title, position="upper_edge", font_size=_font(sub_size), color="black")
     if sc.legend:
-        small = max(7, int(font * 0.7))
+        small = _small_font(sub_size)
         legend = sc.legend if sub_size[1] >= 300 else sc.legend[:1]
-        pl.add_text(wrap_legend(legend, (sub_size[0] - 12) / (1.2 * small)), position=(6, 6),
-                    font_size=small, color="black")
+        pl.add_text(wrap_legend(legend, (sub_size[0] - 12) / (1.2 * small)),
+                    position=(6, 6 + int(captioned * 1.6 * small)), font_size=small, color="black")
     focal, ps = frame(sc.frame, sc.view, (int(sub_size[0]), int(sub_size[1])), bar=sc.bar is not None)
     cam = pl.camera
     cam.parallel_projection = True
@@ -145,6 +158,8 @@ def _add_surface(pl: "pyvista.Plotter", layer: Layer, sc: Scene, col: int) -> No
     if layer.normals is not None:
         kw["smooth_shading"] = True
     if layer.scalars is None:
+        if layer.back is not None:
+            kw["backface_params"] = dict(color=layer.back)
         pl.add_mesh(poly, color=layer.color, **kw)
         return
     poly.point_data["values"] = layer.scalars
