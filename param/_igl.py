@@ -41,6 +41,21 @@ def composite_harmonic(UV0: np.ndarray, F: np.ndarray, b: np.ndarray, bc: np.nda
     )
 
 
+def slim_start(V: np.ndarray, F: np.ndarray, uv0: np.ndarray) -> object:
+    """SLIM's data for the conformal (MIPS) energy from the fold-free start ``uv0 (nv, 2)``,
+    boundary free (``igl.slim_precompute``)."""
+    return igl.slim_precompute(
+        np.asfortranarray(V, dtype=np.float64), np.asfortranarray(F, dtype=np.int32),
+        np.asfortranarray(uv0, dtype=np.float64), igl.MappingEnergyType.CONFORMAL,
+        np.zeros(0, np.int32), np.zeros((0, 2), np.float64, order="F"), 0.0,
+    )
+
+
+def slim_iterate(data: object, iterations: int) -> np.ndarray:
+    """``iterations`` more SLIM steps on ``data`` (:func:`slim_start`); the map ``(nv, 2)`` reached."""
+    return np.array(igl.slim_solve(data, int(iterations)), dtype=np.float64)
+
+
 def closest_points(P: np.ndarray, V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Exact closest points to ``P (n, 3)`` on the mesh ``V (nv, 3)``, ``F (nf, 3)`` (libigl's AABB tree).
 

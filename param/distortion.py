@@ -1,10 +1,36 @@
-"""Per-face distortion of a map from a 3D mesh to the plane, and summary percentiles."""
+"""How much a map from a 3D mesh to the plane distorts: per-face measures, folds, summaries.
+
+    rep = distortion_report(V, F, uv)     # angle/area percentiles, folds, score, warning
+    rep["score"], rep["warning"]
+
+The **score** of a map is its worst angle distortion ``angle_max`` (1 for a conformal map):
+the C1 conditions and the fairing work on the uv triangles, and a single strongly sheared
+or folded one ends as a spike in the fit, while area distortion alone does not (measured
+on the shared meshes; see :data:`~trispline.spline.tolerances.ANGLE_DISTORTION_WARN`).
+``parameterize(..., method="auto")`` ranks maps by it; :func:`warning` also names area
+distortion above :data:`~trispline.spline.tolerances.AREA_DISTORTION_WARN`.
+"""
 from __future__ import annotations
+
+from typing import Any
 
 import numpy as np
 
+from trispline.spline.checks import as_array, check_ids
+from trispline.spline.tolerances import ANGLE_DISTORTION_WARN, AREA_DISTORTION_WARN, MIN_RELATIVE_AREA
+from trispline.spline.topology import signed_areas
+
 #: Percentiles reported for each distortion measure.
 PERCENTILES = (50, 90, 99)
+
+
+def fold_mask(uv: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(flipped (nf,), degenerate (nf,))`` masks, with Triangulation's relative area test."""
+    a = signed_areas(uv, F)
+    scale = max(np.abs(a).mean(), np.finfo(float).tiny)
+    flipped = a < 0
+    degenerate = ~flipped & (a <= MIN_RELATIVE_AREA * scale)
+    return flipped, degenerate
 
 
 def face_jacobians(V: np.ndarray, F: np.ndarray, uv: np.ndarray) -> np.ndarray:
@@ -55,3 +81,74 @@ def summarize(angle: np.ndarray, area: np.ndarray) -> dict:
             out[f"{name}_p{p}"] = float(val)
         out[f"{name}_max"] = float(x.max())
     return out
+
+
+def score(summary: dict[str, Any]) -> float:
+    """The distortion score of a :func:`summarize` dict: its worst angle distortion ``angle_max`` (>= 1)."""
+    return float(summary["angle_max"])
+
+
+def warning(summary: dict[str, Any], folds: int = 0, method: str | None = None) -> str | None:
+    """Why a map with this summary (and ``folds`` folded faces) deserves a warning, or None.
+
+    ``method`` (the map's) words the advice: another method only where one could help.
+    """
+    why = []
+    if folds:
+        why.append(f"{folds} folded triangles (repaired)")
+    if summary["angle_max"] > ANGLE_DISTORTION_WARN:
+        why.append(f"angle distortion max {summary['angle_max']:.3g} (p99 {summary['angle_p99']:.3g}) "
+                   f"above {ANGLE_DISTORTION_WARN:g}")
+    sheared = bool(why)
+    if summary["area_p99"] > AREA_DISTORTION_WARN:
+        why.append(f"area distortion p99 {summary['area_p99']:.3g} (max {summary['area_max']:.3g}) "
+                   f"above {AREA_DISTORTION_WARN:g}")
+    if not why:
+        return None
+    if sheared and method not in ("slim", "auto"):
+        advice = "; the fit may spike there: try --param auto or --param slim"
+    elif sheared:
+        advice = "; the fit may spike there: check the mesh for slivers and folds (trispline info --repair)"
+    else:
+        advice = " (the uv resolution of the fit varies as much between regions)"
+    return f"the parameterization is strongly distorted: {'; '.join(why)}{advice}"
+
+
+def distortion_report(V: np.ndarray, F: np.ndarray, uv: np.ndarray) -> dict[str, Any]:
+    """Distortion of the map ``uv`` of the mesh ``(V, F)``.
+
+    Parameters
+    ----------
+    V : (nv, 3) float64, F : (nf, 3) int, uv : (nv, 2) float64
+
+    Returns
+    -------
+    dict
+        ``angle_p50/p90/p99/max`` (singular value ratio, 1 = conformal), ``area_p50/p90/p99/max``
+        (area share ratio, 1 = equiareal), ``flipped`` and ``degenerate`` (face counts),
+        ``score`` (:func:`score`) and ``warning`` (:func:`warning`: text or None).
+
+    Raises
+    ------
+    InputError
+        Arrays of the wrong shape or dtype, non-finite values, face ids out of range.
+    """
+    V = as_array(V, "V", (None, 3), finite=True)
+    F = check_ids(as_array(F, "F", (None, 3), integer=True, min_rows=1), "F", V.shape[0])
+    uv = as_array(uv, "uv", (V.shape[0], 2), finite=True)
+    out = summarize(*face_distortion(V, F, uv))
+    flipped, degenerate = fold_mask(uv, F)
+    out.update(flipped=int(flipped.sum()), degenerate=int(degenerate.sum()), score=score(out))
+    out["warning"] = warning(out, out["flipped"] + out["degenerate"])
+    return out
+
+
+def conformal_energy(V: np.ndarray, F: np.ndarray, uv: np.ndarray) -> float:
+    """Area-weighted conformal (MIPS) energy ``sum A_f (s1 / s2 + s2 / s1)`` of the map (2 x area for
+    a conformal map; infinite for a fold), the energy :func:`~trispline.param.methods.slim_uv` lowers."""
+    J = face_jacobians(V, F, uv)
+    s = np.linalg.svd(J, compute_uv=False)
+    if (np.linalg.det(J) <= 0).any():
+        return float(np.inf)
+    a3 = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
+    return float((a3 * (s[:, 0] / s[:, 1] + s[:, 1] / s[:, 0])).sum())

@@ -5,7 +5,9 @@
 
 Unlike :func:`validate_mesh`, which stops at the first stage that fails, this counts what
 it can on a broken mesh (several components, non-manifold edges, bowties, NaN
-coordinates), from the same tables (:mod:`trispline.param.tables`).
+coordinates), from the same tables (:mod:`trispline.param.tables`). With ``repair=True``
+the verdict is that on :func:`~trispline.param.repair_mesh`'s result, and with ``param``
+the verdict includes the distortion of that parameterization (``rep["distortion"]``).
 """
 from __future__ import annotations
 
@@ -16,17 +18,29 @@ import numpy as np
 from trispline.spline.checks import check_ids
 
 from .errors import MeshError
+from .repair_mesh import repair_mesh
 from .tables import boundary_loop_count, fan_counts, undirected_edges, vertex_components
 from .validate import as_mesh_arrays, repeated_vertex_faces, validate_mesh, zero_area_faces
 
 
-def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) -> dict[str, Any]:
+def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False, repair: bool = False,
+                 param: str | None = None) -> dict[str, Any]:
     """Counts and checks of a mesh, and the verdict of ``validate_mesh(V, F, keep_largest=...)``.
 
     Parameters
     ----------
     V : (nv, 3) float64 (a (nv, 2) array is lifted to z = 0); NaN and inf are counted, not refused
     F : (nf, 3) int, ids in ``[0, nv)``
+    keep_largest : bool
+        Judge as ``validate_mesh(..., keep_largest=True)`` would.
+    repair : bool
+        Judge the mesh :func:`~trispline.param.repair_mesh` makes of it (``validation`` then
+        also holds ``mesh_repair``: its ``changes`` and ``messages``).
+    param : str, optional
+        A :func:`~trispline.param.parameterize` method: when the mesh is accepted, its map's
+        distortion goes into ``rep["distortion"]`` (``method``, the percentiles, ``score``,
+        ``flipped_before_repair``, ``degenerate_before_repair``, ``repaired``, ``warning``,
+        ``reason``); a map that cannot be made fold-free rejects the mesh.
 
     Returns
     -------
@@ -37,7 +51,8 @@ def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) ->
         (when no face repeats a vertex), ``manifold``; for a manifold mesh ``boundary_loops`` and
         ``closed``, and with one component ``holes`` and ``genus``; last ``validation``:
         ``accepted``, ``problems`` (the :class:`MeshError` kinds), ``message`` (the error's
-        text, empty when accepted) and ``repairs`` (what validation changed).
+        text, empty when accepted) and ``repairs`` (what validation changed); after it
+        ``distortion`` when ``param`` is given and the mesh is accepted.
 
     Raises
     ------
@@ -76,15 +91,36 @@ def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) ->
         if rep["components"] == 1:
             rep["holes"] = max(loops - 1, 0)
             rep["genus"] = (2 - rep["euler_characteristic"] - loops) / 2
-    rep["validation"] = _validation(V, F, keep_largest, rep)
+    rep["validation"] = _validation(V, F, keep_largest, repair, param, rep)
     return rep
 
 
-def _validation(V: np.ndarray, F: np.ndarray, keep_largest: bool, rep: dict[str, Any]) -> dict[str, Any]:
-    """The verdict of :func:`validate_mesh`; on success its loop, hole and genus counts go into ``rep``."""
+def _validation(V: np.ndarray, F: np.ndarray, keep_largest: bool, repair: bool, param: str | None,
+                rep: dict[str, Any]) -> dict[str, Any]:
+    """The verdict of :func:`validate_mesh` (after :func:`repair_mesh` with ``repair``); on success
+    without repair its loop, hole and genus counts go into ``rep``, and with ``param`` the distortion."""
+    fixed = None
     try:
+        if repair:
+            fixed = repair_mesh(V, F)
+            V, F = fixed.V, fixed.F
         vm = validate_mesh(V, F, keep_largest=keep_largest)
+        if param is not None:
+            rep["distortion"] = _distortion(vm, param)
     except MeshError as exc:
-        return dict(accepted=False, problems=list(exc.kinds), message=str(exc), repairs=[])
-    rep.update({k: v for k, v in vm.report.items() if k in ("boundary_loops", "holes", "genus")})
-    return dict(accepted=True, problems=[], message="", repairs=list(vm.messages))
+        out = dict(accepted=False, problems=list(exc.kinds), message=str(exc), repairs=[])
+    else:
+        if not repair:
+            rep.update({k: v for k, v in vm.report.items() if k in ("boundary_loops", "holes", "genus")})
+        out = dict(accepted=True, problems=[], message="", repairs=list(vm.messages))
+    if fixed is not None:
+        out["mesh_repair"] = dict(changes=fixed.changes, messages=fixed.messages)
+    return out
+
+
+def _distortion(vm: Any, param: str) -> dict[str, Any]:
+    """The distortion of ``param``'s map of the validated mesh ``vm`` (MeshError if it cannot be made)."""
+    from .parameterize import parameterize
+
+    p = parameterize(vm.V, vm.F, param)
+    return dict(method=p.method, **p.distortion, repaired=p.repaired, warning=p.warning, reason=p.reason)

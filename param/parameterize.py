@@ -1,6 +1,7 @@
-"""Planar parameterization of a validated open mesh: harmonic, LSCM or given uv.
+"""Planar parameterization of a validated open mesh: harmonic, LSCM, SLIM, given uv, or auto.
 
-Every method ends the same way: the map is mirrored if it came out globally
+The raw maps are in :mod:`trispline.param.methods`; ``auto`` measures them
+(:mod:`trispline.param.distortion`) and takes the cheapest good one. Every method ends the same way: the map is mirrored if it came out globally
 clockwise (faces are never reordered or reoriented), checked for flipped and
 degenerate triangles, repaired if needed (:mod:`trispline.param.repair`), normalised
 (centred at the bounding box centre, farthest vertex at distance 1) and checked again
@@ -9,46 +10,30 @@ domain is never returned: :class:`MeshError` instead.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from trispline.spline.checks import as_array
-from trispline.spline.errors import InputError, first_few
+from trispline.spline.errors import first_few
+from trispline.spline.tolerances import ANGLE_DISTORTION_WARN
 from trispline.spline.topology import signed_areas
 
-from . import _igl
-from .distortion import face_distortion, summarize
+from .distortion import face_distortion, fold_mask, score, summarize, warning
+from .domain import UVTransform, normalise
 from .errors import MeshError
-from .repair import fill_holes, fold_mask, polygon_area, repair_folds
+from .methods import MAPS, raw_map
+from .repair import polygon_area, repair_folds
 from .validate import ValidatedMesh, validate_mesh
 
-METHODS = ("harmonic", "lscm", "uv")
+METHODS = MAPS + ("auto",)
+#: The maps ``method="auto"`` measures: the first alone when it is good (fold-free, score
+#: within ``ANGLE_DISTORTION_WARN``), else all of them (SLIM, the slowest, only then).
+AUTO_ORDER = ("lscm", "harmonic", "slim")
 #: The parameterization of :func:`parameterize` and of ``fit_surface`` / ``trispline fit``
 #: when none is named: LSCM keeps triangle shapes, which the C1 conditions depend on
 #: (docs/param.md compares the methods on real meshes).
 DEFAULT_METHOD = "lscm"
-
-
-@dataclass(frozen=True)
-class UVTransform:
-    """``raw = uv * scale + centre``: from normalised uv back to the method's raw map.
-
-    ``mirrored`` says the raw map was the method's output with ``u`` negated
-    (it came out clockwise).
-    """
-
-    centre: np.ndarray
-    scale: float
-    mirrored: bool = False
-
-    def to_raw(self, uv: np.ndarray) -> np.ndarray:
-        """``(n, 2)`` normalised -> raw."""
-        return np.asarray(uv) * self.scale + self.centre
-
-    def from_raw(self, raw: np.ndarray) -> np.ndarray:
-        """``(n, 2)`` raw -> normalised."""
-        return (np.asarray(raw) - self.centre) / self.scale
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,18 +48,31 @@ class Parameterization:
         The input faces, same rows in the same order (a row is reversed only where
         validation repaired inconsistent orientation; see ``messages``). CCW in uv.
     method : str
+        The map used (for ``method="auto"`` the one it chose; see ``reason``).
     boundary : (nb,) int64
         Outer boundary loop, counter-clockwise in uv.
     transform : UVTransform
+        The normalisation; :func:`~trispline.param.user_domain` and
+        :meth:`UVTransform.as_extras` put the domain back into the user's frame.
     distortion : dict
         ``angle_p50/p90/p99/max`` (singular value ratio, 1 = conformal),
         ``area_p50/p90/p99/max`` (area share ratio, 1 = equiareal),
-        ``flipped_before_repair``, ``degenerate_before_repair`` (face counts).
+        ``flipped_before_repair``, ``degenerate_before_repair`` (face counts) and ``score``
+        (``angle_max``, see :func:`~trispline.param.distortion.score`); all numbers.
     repaired : str or None
         ``"tutte"`` or ``"composite_harmonic"`` when the first map folded.
     messages : list of str
     report : dict
         Validation counts (see :class:`ValidatedMesh`).
+    warning : str or None
+        Why the map deserves a warning (it folded before repair, or its angle or area
+        distortion exceeds ``ANGLE_DISTORTION_WARN`` or ``AREA_DISTORTION_WARN``), else None.
+    source_uv : (nv, 2) float64 or None
+        For ``method="uv"``: the coordinates as given (``V[:, :2]`` when none were), else None.
+    reason : str
+        For ``method="auto"``: which map it chose and why (also in ``messages``); else "".
+    candidates : dict
+        For ``method="auto"``: the distortion dict of every map it measured.
     """
 
     uv: np.ndarray
@@ -86,54 +84,10 @@ class Parameterization:
     repaired: str | None = None
     messages: list[str] = field(default_factory=list)
     report: dict = field(default_factory=dict)
-
-
-# ----------------------------------------------------------------------- methods
-def harmonic_uv(V: np.ndarray, F: np.ndarray, loop: np.ndarray) -> np.ndarray:
-    """Harmonic map ``(nv, 2)``: ``loop (n,)`` onto the unit circle spaced by 3D arc length,
-    the other vertices by ``igl.harmonic`` (cotangent weights). Holes other than ``loop``
-    stay free (:func:`parameterize` fills them first)."""
-    return _igl.harmonic(V, F, loop, _igl.circle_boundary(V, loop))
-
-
-def normalise(raw: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """``(uv, centre (2,), scale)``: bounding-box centre to 0, farthest vertex to distance 1."""
-    centre = 0.5 * (raw.min(0) + raw.max(0))
-    scale = float(np.sqrt(((raw - centre) ** 2).sum(1).max()))
-    if not np.isfinite(scale) or scale <= 0:
-        raise MeshError("the parameterization collapsed to a point (zero extent)", ["degenerate_map"])
-    return (raw - centre) / scale, centre, scale
-
-
-def far_apart(V: np.ndarray, loop: np.ndarray) -> tuple[int, int]:
-    """Two vertices of ``loop`` far apart (two sweeps of farthest-point search)."""
-    P = V[loop]
-    i = int(np.argmax(((P - P[0]) ** 2).sum(1)))
-    j = int(np.argmax(((P - P[i]) ** 2).sum(1)))
-    return int(loop[i]), int(loop[j])
-
-
-def _raw_map(vm: ValidatedMesh, method: str, uv: np.ndarray | None) -> np.ndarray:
-    V, F = vm.V, vm.F
-    nv = V.shape[0]
-    if method == "harmonic":
-        Vx, Fx = fill_holes(V, F, vm.boundary_loops[1:])
-        return harmonic_uv(Vx, Fx, vm.boundary_loops[0])[:nv]
-    if method == "lscm":
-        i, j = far_apart(V, vm.boundary_loops[0])
-        d = float(np.linalg.norm(V[i] - V[j]))
-        return _igl.lscm(V, F, np.array([i, j]), np.array([[0.0, 0.0], [d, 0.0]]))
-    # method == "uv"
-    if uv is None:
-        return V[:, :2].copy()
-    try:
-        uv = as_array(uv, "uv", (nv, 2))
-    except InputError as exc:
-        raise MeshError(f"{exc} (one per vertex)", ["uv_shape"]) from None
-    if not np.isfinite(uv).all():
-        raise MeshError(f"non-finite uv at vertices {first_few(np.flatnonzero(~np.isfinite(uv).all(1)))}",
-                        ["non_finite"])
-    return uv.copy()
+    warning: str | None = None
+    source_uv: np.ndarray | None = None
+    reason: str = ""
+    candidates: dict = field(default_factory=dict)
 
 
 def _height_axes_hint(vm: ValidatedMesh) -> str:
@@ -160,12 +114,18 @@ def parameterize(
     ----------
     V : (nv, 3) float64
     F : (nf, 3) int
-    method : {"lscm", "harmonic", "uv"}
+    method : {"lscm", "harmonic", "slim", "uv", "auto"}
         ``lscm`` (:data:`DEFAULT_METHOD`): least squares conformal, two far-apart boundary
         vertices pinned, free boundary. ``harmonic``: outer loop to the unit circle by arc
         length, interior harmonic (cotangent weights), holes filled for the solve.
-        ``uv``: the given ``uv`` (e.g. OBJ texture coordinates), or ``V[:, :2]``
-        when ``uv`` is None (height fields).
+        ``slim``: the conformal (MIPS) energy minimised by SLIM from the Tutte embedding:
+        nearly as conformal as LSCM, free boundary, and fold-free by construction (slower:
+        a sparse solve per iteration). ``uv``: the given ``uv`` (e.g. OBJ texture
+        coordinates), or ``V[:, :2]`` when ``uv`` is None (height fields). ``auto``:
+        ``lscm`` when it is fold-free with a distortion score (worst angle distortion,
+        ``angle_max``) within ``ANGLE_DISTORTION_WARN``; otherwise the lowest score of
+        ``lscm``, ``harmonic`` and ``slim``, maps that did not fold first (``reason`` says
+        which and why).
     uv : (nv, 2) float64, optional
         Only for ``method="uv"``.
     repair : bool
@@ -184,8 +144,16 @@ def parameterize(
     if uv is not None and method != "uv":
         raise MeshError(f"uv was given but method is {method!r}; use method='uv'", ["method"])
     vm = validate_mesh(V, F)
+    if method == "auto":
+        return _auto(vm, repair)
+    return _single(vm, method, uv, repair)
+
+
+def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool) -> Parameterization:
+    """:func:`parameterize` with one map of :data:`~trispline.param.methods.MAPS`."""
     messages = list(vm.messages)
-    raw = _raw_map(vm, method, uv)
+    raw = raw_map(vm, method, uv)
+    source_uv = raw.copy() if method == "uv" else None
     if not np.isfinite(raw).all():
         bad = np.flatnonzero(~np.isfinite(raw).all(1))
         raise MeshError(f"the {method} map produced non-finite uv at vertices {first_few(bad)}",
@@ -200,11 +168,55 @@ def parameterize(
     boundary = max(vm.boundary_loops, key=lambda l: abs(polygon_area(uvn[l])))
     dist = summarize(*face_distortion(vm.V, vm.F, uvn))
     dist["flipped_before_repair"], dist["degenerate_before_repair"] = folds
+    dist["score"] = score(dist)
     return Parameterization(
         uv=uvn, faces=vm.F, method=method, boundary=boundary,
         transform=UVTransform(centre=centre, scale=scale, mirrored=mirrored),
         distortion=dist, repaired=repaired, messages=messages, report=vm.report,
+        warning=warning(dist, sum(folds), method), source_uv=source_uv,
     )
+
+
+def _good(p: Parameterization) -> bool:
+    """Fold-free as first computed, and a score within ``ANGLE_DISTORTION_WARN``."""
+    return _folds(p) == 0 and p.distortion["score"] <= ANGLE_DISTORTION_WARN
+
+
+def _auto(vm: ValidatedMesh, repair: bool) -> Parameterization:
+    """``method="auto"``: LSCM when it is good, else the least distorted map, fold-free first."""
+    tried: dict[str, Parameterization] = {}
+    failed: dict[str, str] = {}
+    for name in AUTO_ORDER:
+        if tried.get(AUTO_ORDER[0]) is not None and _good(tried[AUTO_ORDER[0]]):
+            break
+        try:
+            tried[name] = _single(vm, name, None, repair)
+        except MeshError as exc:
+            failed[name] = str(exc).splitlines()[0]
+    if not tried:
+        raise MeshError("auto: no parameterization worked: "
+                        + "; ".join(f"{k}: {v}" for k, v in failed.items()), ["folded"])
+    rank = {k: (_folds(p) > 0, p.distortion["score"]) for k, p in tried.items()}
+    best = min(rank, key=rank.__getitem__)
+    others = [f"{k} {_verdict(p)}" for k, p in tried.items() if k != best]
+    others += [f"{k} failed ({v})" for k, v in failed.items()]
+    reason = (f"auto chose {best} ({_verdict(tried[best])})" + (f" over {', '.join(others)}" if others else "")
+              + f"; score = worst angle distortion, good = no fold and score <= {ANGLE_DISTORTION_WARN:g}")
+    p = tried[best]
+    return dataclasses.replace(p, messages=p.messages + [reason], reason=reason,
+                               warning=warning(p.distortion, _folds(p), "auto"),
+                               candidates={k: q.distortion for k, q in tried.items()})
+
+
+def _folds(p: Parameterization) -> int:
+    """Faces the first map flipped or collapsed (repaired since)."""
+    return int(p.distortion["flipped_before_repair"] + p.distortion["degenerate_before_repair"])
+
+
+def _verdict(p: Parameterization) -> str:
+    """``"score 1.07"`` or ``"score 2.1e+04, 3 folds repaired"``."""
+    folds = _folds(p)
+    return f"score {p.distortion['score']:.3g}" + (f", {folds} folds repaired" if folds else "")
 
 
 def _unfold(vm: ValidatedMesh, raw: np.ndarray, method: str, no_uv: bool, repair: bool,

@@ -12,20 +12,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from trispline.spline.topology import signed_areas
-from trispline.spline.tolerances import MIN_RELATIVE_AREA
-
 from . import _igl
+from .distortion import fold_mask
 from .validate import ValidatedMesh
-
-
-def fold_mask(uv: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(flipped (nf,), degenerate (nf,))`` masks, with Triangulation's relative area test."""
-    a = signed_areas(uv, F)
-    scale = max(np.abs(a).mean(), np.finfo(float).tiny)
-    flipped = a < 0
-    degenerate = ~flipped & (a <= MIN_RELATIVE_AREA * scale)
-    return flipped, degenerate
 
 
 def polygon_area(P: np.ndarray) -> float:

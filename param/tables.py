@@ -56,18 +56,18 @@ def vertex_components(F: np.ndarray, nv: int) -> tuple[int, np.ndarray]:
     return connected_components(A, directed=False)
 
 
-def fan_counts(F: np.ndarray, he_edge: np.ndarray, nv: int) -> np.ndarray:
-    """Number of face fans (edge-connected groups of the faces at a vertex) per vertex ``(nv,)``.
+def corner_fans(F: np.ndarray, h0: np.ndarray, h1: np.ndarray) -> np.ndarray:
+    """Fan label ``(3 nf,)`` of every corner (corner ``3 f + k`` sits at ``F[f, k]``).
 
-    A manifold vertex has one fan; more than one is a bowtie. Needs no repeated vertex ids.
+    Two corners at one vertex are in the same fan when they are joined through faces glued
+    along the half-edge pairs ``(h0, h1)`` (e.g. :func:`edge_pairs`); labels are global
+    (distinct fans at one vertex have distinct labels). Needs no repeated vertex ids.
     """
     nf = F.shape[0]
-    # corner 3f+k sits at F[f, k]; half-edge 3f+k joins local (k+1, k+2)
     he_face = np.repeat(np.arange(nf), 3)
     he_k = np.tile(np.arange(3), nf)
-    h0, h1 = edge_pairs(he_edge)
     rows, cols = [], []
-    for off in (1, 2):  # both endpoints of the edge
+    for off in (1, 2):  # both endpoints of the edge (half-edge 3f+k joins local k+1, k+2)
         c0 = 3 * he_face[h0] + (he_k[h0] + off) % 3
         v = F.ravel()[c0]
         f1 = he_face[h1]
@@ -77,9 +77,17 @@ def fan_counts(F: np.ndarray, he_edge: np.ndarray, nv: int) -> np.ndarray:
     r = np.concatenate(rows)
     c = np.concatenate(cols)
     A = sp.coo_matrix((np.ones(r.size, np.int8), (r, c)), shape=(3 * nf, 3 * nf)).tocsr()
-    _, lab = connected_components(A, directed=False)
-    key = np.unique(F.ravel() * np.int64(3 * nf) + lab)  # distinct (vertex, fan label)
-    return np.bincount(key // (3 * nf), minlength=nv)
+    return connected_components(A, directed=False)[1]
+
+
+def fan_counts(F: np.ndarray, he_edge: np.ndarray, nv: int) -> np.ndarray:
+    """Number of face fans (edge-connected groups of the faces at a vertex) per vertex ``(nv,)``.
+
+    A manifold vertex has one fan; more than one is a bowtie. Needs no repeated vertex ids.
+    """
+    lab = corner_fans(F, *edge_pairs(he_edge))
+    key = np.unique(F.ravel() * np.int64(3 * F.shape[0]) + lab)  # distinct (vertex, fan label)
+    return np.bincount(key // (3 * F.shape[0]), minlength=nv)
 
 
 def orientation_classes(F: np.ndarray, he: np.ndarray, he_edge: np.ndarray) -> np.ndarray:

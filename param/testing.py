@@ -43,3 +43,36 @@ def bumpy_disk(n_faces: int, *, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Open 3D disk with about ``n_faces`` faces: :func:`polar_disk` lifted by :func:`bumps`."""
     n_rings = max(2, int(round(np.sqrt(n_faces / 6.0))))
     return lift(*polar_disk(n_rings, seed=seed))
+
+
+def nearly_closed(n_points: int = 2000, *, opening: float = 0.35, holes: int = 2,
+                  seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A unit sphere of ``n_points`` jittered Fibonacci points, opened by a cap of angular radius
+    ``opening`` (radians) around +z and ``holes`` small holes elsewhere: an open disk with holes
+    whose conformal map shrinks the far side by orders of magnitude (like a nearly closed scan).
+
+    Returns ``(V (nv, 3), F (nf, 3))``, unreferenced vertices dropped, outward-facing faces.
+    """
+    from scipy.spatial import ConvexHull
+
+    rng = np.random.default_rng(seed)
+    k = np.arange(n_points) + 0.5
+    z = 1.0 - 2.0 * k / n_points
+    phi = np.pi * (1.0 + 5.0 ** 0.5) * k + rng.uniform(-0.3, 0.3, n_points) / np.sqrt(n_points)
+    r = np.sqrt(1.0 - z ** 2)
+    P = np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+    P /= np.linalg.norm(P, axis=1, keepdims=True)
+    hull = ConvexHull(P)
+    F = hull.simplices.astype(np.int64)
+    flip = (np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]) * P[F].mean(1)).sum(1) < 0
+    F[flip] = F[flip][:, [0, 2, 1]]
+    c = P[F].mean(1)
+    c /= np.linalg.norm(c, axis=1, keepdims=True)
+    drop = c[:, 2] > np.cos(opening)
+    for h in range(holes):  # small holes on a ring below the equator
+        a = 2 * np.pi * h / max(holes, 1)
+        centre = np.array([0.8 * np.cos(a), 0.8 * np.sin(a), -0.6])
+        drop |= np.linalg.norm(c - centre / np.linalg.norm(centre), axis=1) < 2.5 / np.sqrt(n_points)
+    F = F[~drop]
+    used, inv = np.unique(F, return_inverse=True)
+    return P[used], inv.reshape(-1, 3).astype(np.int64)

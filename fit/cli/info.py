@@ -1,8 +1,10 @@
 """``trispline info``: topology report of a mesh and whether ``fit`` accepts it (exit 3 if not).
 
-    trispline info MESH [--keep-largest]
+    trispline info MESH [--keep-largest] [--repair] [--param lscm|harmonic|slim|uv|auto]
 
-The counts come from :func:`trispline.param.inspect_mesh`; this module only formats them.
+The counts, the verdict and the distortion of the parameterization (``--param``, default
+``lscm``; for a mesh fit accepts) come from :func:`trispline.param.inspect_mesh`; this
+module only formats them, and warns when the map is strongly distorted.
 """
 from __future__ import annotations
 
@@ -10,9 +12,9 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from trispline.param import inspect_mesh
+from trispline.param import DEFAULT_METHOD, METHODS, inspect_mesh
 
-from .common import EXIT_CHECK, EXIT_OK, UI, add_common, one_line
+from .common import EXIT_CHECK, EXIT_OK, UI, add_common, fmt, one_line
 
 __all__ = ["add_parser", "cmd_info"]
 
@@ -24,15 +26,31 @@ def add_parser(sub: Any) -> None:
                                    "faces, and what fit would reject and why. Exit 3 if fit would reject it.")
     p.add_argument("mesh", metavar="MESH", help="input mesh (.obj .off .ply .stl .glb .gltf)")
     p.add_argument("--keep-largest", action="store_true", help="judge as fit --keep-largest would")
+    p.add_argument("--repair", action="store_true",
+                   help="judge the mesh repair makes of it (bowties split, non-manifold edges cut, zero-area "
+                        "and duplicate faces dropped, largest component kept), as fit --repair would")
+    p.add_argument("--param", choices=METHODS, default=DEFAULT_METHOD,
+                   help=f"parameterization whose distortion is reported (default {DEFAULT_METHOD})")
     add_common(p)
     p.set_defaults(func=cmd_info)
 
 
 def _fit_verdict(validation: dict[str, Any]) -> dict[str, Any]:
     """``inspect_mesh``'s validation verdict in the words of ``fit`` (one-line message)."""
+    extra = {"mesh_repair": validation["mesh_repair"]} if "mesh_repair" in validation else {}
     if validation["accepted"]:
-        return dict(accepted=True, problems=[], message="fit accepts this mesh", repairs=validation["repairs"])
-    return dict(accepted=False, problems=validation["problems"], message=one_line(validation["message"]))
+        return dict(accepted=True, problems=[], message="fit accepts this mesh", repairs=validation["repairs"],
+                    **extra)
+    return dict(accepted=False, problems=validation["problems"], message=one_line(validation["message"]), **extra)
+
+
+def _distortion_text(d: dict[str, Any]) -> str:
+    """One line: the parameterization's distortion percentiles and folds."""
+    folds = d["flipped_before_repair"] + d["degenerate_before_repair"]
+    return (f"  parameterization {d['method']}: angle distortion p50 {fmt(d['angle_p50'])}, p99 "
+            f"{fmt(d['angle_p99'])}, max {fmt(d['angle_max'])}; area distortion p50 {fmt(d['area_p50'])}, "
+            f"p99 {fmt(d['area_p99'])}, max {fmt(d['area_max'])}; "
+            + (f"{folds} folded triangles repaired ({d['repaired']})" if folds else "no folds"))
 
 
 def _info_text(d: dict) -> str:
@@ -50,6 +68,12 @@ def _info_text(d: dict) -> str:
         f"  texture coordinates (vt): {'yes' if d.get('has_uv') else 'no'}",
     ]
     f = d["fit"]
+    if f.get("mesh_repair", {}).get("messages"):
+        lines.append(f"  repair: {'; '.join(f['mesh_repair']['messages'])}")
+    if "distortion" in d:
+        lines.append(_distortion_text(d["distortion"]))
+        if d["distortion"]["reason"]:
+            lines.append(f"  {d['distortion']['reason']}")
     if f["accepted"]:
         lines.append("  fit: accepted" + (f" ({'; '.join(f['repairs'])})" if f.get("repairs") else ""))
     else:
@@ -62,8 +86,10 @@ def cmd_info(args: argparse.Namespace, ui: UI) -> int:
     from ..io import read_mesh
 
     md = read_mesh(args.mesh)
-    report = inspect_mesh(md.V, md.F, keep_largest=args.keep_largest)
+    report = inspect_mesh(md.V, md.F, keep_largest=args.keep_largest, repair=args.repair, param=args.param)
     report["fit"] = _fit_verdict(report.pop("validation"))
+    if report.get("distortion", {}).get("warning"):
+        ui.warn(report["distortion"]["warning"])
     data = dict(command="info", file=args.mesh, format=Path(args.mesh).suffix.lower()[1:],
                 dropped_unreferenced_vertices=md.dropped, has_uv=md.uv is not None, **report)
     ui.result(data, _info_text)

@@ -1,0 +1,105 @@
+"""The raw planar maps of a validated mesh, one per method; :func:`~trispline.param.parameterize`
+mirrors, checks, repairs and normalises them.
+
+* ``harmonic``: the outer loop on the unit circle spaced by 3D arc length, the interior by
+  ``igl.harmonic`` (cotangent weights), holes filled by fans for the solve.
+* ``lscm``: least squares conformal, two far-apart boundary vertices pinned, free boundary.
+* ``slim``: SLIM (Rabinovich et al. 2017) on the conformal (MIPS) energy ``s1/s2 + s2/s1``,
+  started from the Tutte embedding (fold-free by Floater's theorem) with holes filled: the
+  energy is infinite on a fold, so every step stays fold-free, while it drives the map to
+  conformal like LSCM; the boundary is free. (SLIM's symmetric Dirichlet energy, which also
+  evens out areas, sheared more triangles and fitted with larger spikes on the shared
+  meshes and on nearly closed spheres: docs/param.md.)
+* ``uv``: the given coordinates, or ``V[:, :2]`` (height fields).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from trispline.spline.checks import as_array
+from trispline.spline.errors import InputError, first_few
+from trispline.spline.tolerances import SLIM_RTOL
+from trispline.spline.topology import signed_areas
+
+from . import _igl
+from .distortion import conformal_energy
+from .errors import MeshError
+from .repair import fill_holes, tutte
+from .validate import ValidatedMesh, face_areas_3d
+
+__all__ = ["MAPS", "SLIM_MAX_ITERATIONS", "harmonic_uv", "far_apart", "slim_uv", "raw_map"]
+
+#: The methods with a map of their own (``parameterize`` adds ``"auto"``, a choice among them).
+MAPS = ("harmonic", "lscm", "slim", "uv")
+#: Most SLIM iterations (each a sparse solve); measured on the shared meshes it meets
+#: :data:`~trispline.spline.tolerances.SLIM_RTOL` within 10 to 30.
+SLIM_MAX_ITERATIONS = 40
+
+
+def harmonic_uv(V: np.ndarray, F: np.ndarray, loop: np.ndarray) -> np.ndarray:
+    """Harmonic map ``(nv, 2)``: ``loop (n,)`` onto the unit circle spaced by 3D arc length,
+    the other vertices by ``igl.harmonic`` (cotangent weights). Holes other than ``loop``
+    stay free (:func:`parameterize` fills them first)."""
+    return _igl.harmonic(V, F, loop, _igl.circle_boundary(V, loop))
+
+
+def far_apart(V: np.ndarray, loop: np.ndarray) -> tuple[int, int]:
+    """Two vertices of ``loop`` far apart (two sweeps of farthest-point search)."""
+    P = V[loop]
+    i = int(np.argmax(((P - P[0]) ** 2).sum(1)))
+    j = int(np.argmax(((P - P[i]) ** 2).sum(1)))
+    return int(loop[i]), int(loop[j])
+
+
+def slim_uv(vm: ValidatedMesh, *, max_iterations: int = SLIM_MAX_ITERATIONS) -> np.ndarray:
+    """SLIM map ``(nv, 2)`` of a validated mesh: Tutte start, conformal energy, free boundary.
+
+    The holes stay filled by their fans during the iterations (so they cannot overlap);
+    the start is scaled to the 3D area (SLIM's steps are scale-aware). Stops after
+    ``max_iterations`` or when an iteration lowers the energy by less than ``SLIM_RTOL``.
+    """
+    V, F = vm.V, vm.F
+    nv = V.shape[0]
+    outer = vm.boundary_loops[0]
+    Vx, Fx = fill_holes(V, F, vm.boundary_loops[1:])
+    start = tutte(Fx, Vx.shape[0], outer, _igl.circle_boundary(Vx, outer))
+    start *= np.sqrt(face_areas_3d(Vx, Fx).sum() / signed_areas(start, Fx).sum())
+    data = _igl.slim_start(Vx, Fx, start)
+    energy = conformal_energy(V, F, start[:nv])  # the mesh's own faces, not the fans
+    uv = start
+    for _ in range(max_iterations):
+        uv = _igl.slim_iterate(data, 1)
+        e = conformal_energy(V, F, uv[:nv])
+        if not np.isfinite(e) or energy - e <= SLIM_RTOL * energy:
+            break
+        energy = e
+    return uv[:nv]
+
+
+def _given_uv(vm: ValidatedMesh, uv: np.ndarray | None) -> np.ndarray:
+    """The ``uv`` method's map: ``uv`` checked (one finite row per vertex), or ``V[:, :2]``."""
+    if uv is None:
+        return vm.V[:, :2].copy()
+    try:
+        uv = as_array(uv, "uv", (vm.V.shape[0], 2))
+    except InputError as exc:
+        raise MeshError(f"{exc} (one per vertex)", ["uv_shape"]) from None
+    if not np.isfinite(uv).all():
+        raise MeshError(f"non-finite uv at vertices {first_few(np.flatnonzero(~np.isfinite(uv).all(1)))}",
+                        ["non_finite"])
+    return uv.copy()
+
+
+def raw_map(vm: ValidatedMesh, method: str, uv: np.ndarray | None = None) -> np.ndarray:
+    """The map ``(nv, 2)`` of ``method`` (one of :data:`MAPS`) before any check or repair."""
+    V, F = vm.V, vm.F
+    if method == "harmonic":
+        Vx, Fx = fill_holes(V, F, vm.boundary_loops[1:])
+        return harmonic_uv(Vx, Fx, vm.boundary_loops[0])[: V.shape[0]]
+    if method == "lscm":
+        i, j = far_apart(V, vm.boundary_loops[0])
+        d = float(np.linalg.norm(V[i] - V[j]))
+        return _igl.lscm(V, F, np.array([i, j]), np.array([[0.0, 0.0], [d, 0.0]]))
+    if method == "slim":
+        return slim_uv(vm)
+    return _given_uv(vm, uv)

@@ -1,0 +1,203 @@
+"""Repair of a broken scan into a mesh :func:`~trispline.param.validate_mesh` can accept.
+
+    r = repair_mesh(V, F)
+    r.V, r.F                      # the repaired mesh
+    r.source_vertex_index         # (nv',) input vertex of each output vertex
+    r.changes, r.messages         # counts per kind of change, and the same in words
+
+In this order, all vectorised: faces with non-finite corners, a repeated vertex id, zero
+area (:func:`~trispline.param.validate.zero_area_faces`) or the vertex set of an earlier
+face are dropped; every edge keeps at most two faces (the first, and the first after it
+that runs the edge the other way, else the next one); then every vertex is split into one
+copy per fan of faces that the kept edges join, which separates bowtie vertices and cuts
+fins off along their non-manifold edge; last, only the largest connected component (by
+faces) is kept. Orientation is left to :func:`validate_mesh`, which repairs it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from trispline.spline.checks import check_ids
+
+from .errors import MeshError
+from .tables import corner_fans, undirected_edges, vertex_components
+from .validate import as_mesh_arrays, repeated_vertex_faces, zero_area_faces
+
+__all__ = ["RepairedMesh", "repair_mesh"]
+
+#: Rounds of edge-cutting and vertex-splitting before giving up (one suffices unless a cut
+#: face reaches the kept ones again around a vertex).
+MAX_SPLIT_ROUNDS = 8
+
+
+@dataclass(frozen=True, eq=False)
+class RepairedMesh:
+    """The result of :func:`repair_mesh`.
+
+    Attributes
+    ----------
+    V : (nv', 3) float64
+    F : (nf', 3) int64
+    source_vertex_index : (nv',) int64
+        Input vertex of each output vertex (a split vertex appears several times).
+    source_face_index : (nf',) int64
+        Input face of each output face (the kept faces, in input order).
+    changes : dict of str -> int
+        ``non_finite_faces``, ``repeated_vertex_faces``, ``zero_area_faces``,
+        ``duplicate_faces``, ``non_manifold_edges``, ``split_vertices`` (input vertices that
+        became several), ``added_vertices``, ``dropped_components``, ``dropped_component_faces``,
+        ``dropped_vertices`` (input vertices in no output face).
+    messages : list of str
+        The non-zero changes in words.
+    """
+
+    V: np.ndarray
+    F: np.ndarray
+    source_vertex_index: np.ndarray
+    source_face_index: np.ndarray
+    changes: dict = field(default_factory=dict)
+    messages: list = field(default_factory=list)
+
+    @property
+    def changed(self) -> bool:
+        """Whether anything was changed."""
+        return any(self.changes.values())
+
+
+def _drop_bad_faces(V: np.ndarray, F: np.ndarray, changes: dict) -> np.ndarray:
+    """Indices ``(nf',)`` of the faces to keep: finite, three distinct ids, non-zero area, first of their vertex set."""
+    keep = np.isfinite(V[F]).all((1, 2))
+    changes["non_finite_faces"] = int((~keep).sum())
+    rep = repeated_vertex_faces(F) & keep
+    changes["repeated_vertex_faces"] = int(rep.sum())
+    keep &= ~rep
+    zero = np.zeros_like(keep)
+    if keep.any():
+        zero[keep] = zero_area_faces(V, F[keep])
+    changes["zero_area_faces"] = int(zero.sum())
+    keep &= ~zero
+    idx = np.flatnonzero(keep)
+    _, first = np.unique(np.sort(F[idx], axis=1), axis=0, return_index=True)
+    changes["duplicate_faces"] = int(idx.size - first.size)
+    return idx[np.sort(first)]
+
+
+def _manifold_pairs(F: np.ndarray, nv: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """``(h0, h1, n_cut)``: one half-edge pair per interior edge, at most two faces per edge.
+
+    On an edge with more than two faces the first face (lowest index) is paired with the
+    first later face that runs the edge the other way (else the next face); the others are cut.
+    """
+    he, _, he_edge, edge_count = undirected_edges(F, nv)
+    order = np.argsort(he_edge, kind="stable")
+    e_sorted = he_edge[order]
+    start = np.flatnonzero(np.r_[True, e_sorted[1:] != e_sorted[:-1]])
+    count = edge_count[e_sorted[start]]
+    group = np.repeat(np.arange(start.size), count)
+    first = order[start][group]
+    later = np.arange(order.size) != start[group]
+    opposite = later & (he[order, 0] == he[first, 1])
+    # the partner: the first opposite half-edge of the group, else the one after the first
+    cand = np.flatnonzero(opposite)
+    partner = start + 1
+    g, at = np.unique(group[cand], return_index=True)
+    partner[g] = cand[at]
+    inner = count >= 2
+    return order[start[inner]], order[partner[inner]], int((count > 2).sum())
+
+
+def _split_fans(F: np.ndarray, nv: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """``(F', source (nv',), n_cut)``: one vertex per (vertex, fan) over the manifold pairs."""
+    h0, h1, n_cut = _manifold_pairs(F, nv)
+    lab = corner_fans(F, h0, h1)
+    key = F.ravel().astype(np.int64) * np.int64(3 * F.shape[0]) + lab
+    uniq, inv = np.unique(key, return_inverse=True)
+    return inv.reshape(-1, 3).astype(np.int64), uniq // (3 * F.shape[0]), n_cut
+
+
+def _largest(F: np.ndarray, nv: int, changes: dict) -> np.ndarray:
+    """Indices of the faces of the component with the most faces."""
+    ncomp, vlab = vertex_components(F, nv)
+    flab = vlab[F[:, 0]]
+    sizes = np.bincount(flab, minlength=ncomp)
+    big = int(np.argmax(sizes))
+    kept = np.flatnonzero(flab == big)
+    changes["dropped_components"] = int((sizes > 0).sum() - 1)
+    changes["dropped_component_faces"] = int(F.shape[0] - kept.size)
+    return kept
+
+
+_WORDS = {
+    "non_finite_faces": "dropped {} faces with non-finite (NaN or inf) corners",
+    "repeated_vertex_faces": "dropped {} faces naming a vertex twice",
+    "zero_area_faces": "dropped {} zero-area faces",
+    "duplicate_faces": "dropped {} duplicate faces (same three vertices as an earlier face)",
+    "non_manifold_edges": "cut {} non-manifold edges down to two faces each",
+    "split_vertices": "split {} bowtie or non-manifold vertices into one copy per fan of faces ({} added)",
+    "dropped_components": "dropped {} smaller connected components ({} faces)",
+    "dropped_vertices": "{} input vertices are in no output face",
+}
+#: Counts told in the message of another (key -> the key whose message shows it).
+_TOLD_WITH = {"added_vertices": "split_vertices", "dropped_component_faces": "dropped_components"}
+
+
+def _messages(changes: dict[str, int]) -> list[str]:
+    """The non-zero ``changes`` in words, in the order they were made."""
+    extra = {host: changes[k] for k, host in _TOLD_WITH.items()}
+    return [_WORDS[k].format(v, extra.get(k)) for k, v in changes.items() if v and k in _WORDS]
+
+
+def repair_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = True) -> RepairedMesh:
+    """Drop bad and duplicate faces, split bowtie and non-manifold vertices, keep the largest component.
+
+    Parameters
+    ----------
+    V : (nv, 3) float64 (a (nv, 2) array is lifted to z = 0); non-finite rows allowed
+    F : (nf, 3) int, ids in ``[0, nv)``
+    keep_largest : bool
+        Keep only the connected component with the most faces (default), else all of them.
+
+    Returns
+    -------
+    RepairedMesh
+        A mesh without degenerate, duplicate or non-manifold elements, the map back to the
+        input vertices and what changed. It may still be closed, of higher genus or
+        non-orientable: :func:`validate_mesh` says so.
+
+    Raises
+    ------
+    MeshError
+        Arrays of the wrong shape or dtype, ids out of range, or no face left.
+    """
+    V, F = as_mesh_arrays(V, F)
+    nv = V.shape[0]
+    check_ids(F, "F", nv, error=MeshError)
+    changes: dict[str, int] = {}
+    faces = _drop_bad_faces(V, F, changes)
+    if faces.size == 0:
+        raise MeshError(f"repair left no faces ({', '.join(f'{k} {v}' for k, v in changes.items() if v)})",
+                        ["empty"])
+    Fw, source = F[faces], np.arange(nv)
+    cut = 0
+    for _ in range(MAX_SPLIT_ROUNDS):
+        Fw, src, n_cut = _split_fans(Fw, source.size)
+        source = source[src]
+        cut += n_cut
+        if n_cut == 0:
+            break
+    else:
+        raise MeshError(f"repair could not resolve the non-manifold edges in {MAX_SPLIT_ROUNDS} rounds",
+                        ["non_manifold_edges"])
+    changes["non_manifold_edges"] = cut
+    copies = np.bincount(source, minlength=nv)
+    changes["split_vertices"] = int((copies > 1).sum())
+    changes["added_vertices"] = int(source.size - (copies > 0).sum())
+    kept = _largest(Fw, source.size, changes) if keep_largest else np.arange(Fw.shape[0])
+    used, Fk = np.unique(Fw[kept], return_inverse=True)
+    source = source[used]
+    changes["dropped_vertices"] = int(nv - np.unique(source).size)
+    messages = _messages(changes)
+    return RepairedMesh(V=V[source], F=Fk.reshape(-1, 3).astype(np.int64), source_vertex_index=source,
+                        source_face_index=faces[kept], changes=changes, messages=messages)
