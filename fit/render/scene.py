@@ -262,8 +262,8 @@ def _zebra(scene: Scene, s: SurfaceSample, size: tuple[int, int], stripes: float
     stats.update(stripe_spacing=light.spacing, stripes=stripes, stripes_auto=auto, stripe_pixels=pixels,
                  stripe_angle=angle, panel_distance=float(light.height - (s.points @ light.facing).max()))
     how = "automatic" if auto else "set"
-    scene.legend += ["zebra: highlight lines of the analytic normals (broken stripes = a kink)",
-                     f"{stripes:g} stripe pairs per diagonal ({how}), >= {pixels:.3g} px wide on "
+    scene.legend += ["zebra (highlight lines of the normals): broken stripes = a kink",
+                     f"{stripes:g} stripe pairs per diagonal ({how}), >= {pixels:.3g} px on "
                      f"{100 * STRIPE_AREA_FRACTION:g}% of the area"]
     if pixels < MIN_STRIPE_PIXELS:
         scene.legend.append(f"narrower than {MIN_STRIPE_PIXELS:g} px: stripes alias (fewer stripes, larger picture)")
