@@ -238,8 +238,8 @@ def test_caption_sits_in_the_bottom_right_corner(backend):
     ys, xs = np.nonzero(diff)
     # the caption's pixels are in the bottom right corner; the legend moved up a row (bottom left)
     corner = (ys > 0.9 * 300) & (xs > 0.5 * 400)
-    assert corner.sum() > 50
-    assert (xs[~corner] < 0.75 * 400).all() and (ys[~corner] > 0.75 * 300).all()
+    assert corner.sum() > 50 and xs[corner].max() > 0.95 * 400  # right-aligned at the edge
+    assert (ys[~corner] > 0.75 * 300).all()  # nothing else moved but the legend
 
 
 def test_cli_caption_names_the_surface_file(tmp_path, capsys):
