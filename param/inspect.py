@@ -18,13 +18,14 @@ import numpy as np
 from trispline.spline.checks import check_ids
 
 from .errors import MeshError
+from .parameterize import parameterize
 from .repair_mesh import repair_mesh
 from .tables import boundary_loop_count, fan_counts, undirected_edges, vertex_components
-from .validate import as_mesh_arrays, repeated_vertex_faces, validate_mesh, zero_area_faces
+from .validate import ValidatedMesh, as_mesh_arrays, repeated_vertex_faces, validate_mesh, zero_area_faces
 
 
 def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False, repair: bool = False,
-                 param: str | None = None) -> dict[str, Any]:
+                 param: str | None = None, uv: np.ndarray | None = None) -> dict[str, Any]:
     """Counts and checks of a mesh, and the verdict of ``validate_mesh(V, F, keep_largest=...)``.
 
     Parameters
@@ -41,6 +42,9 @@ def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False, re
         distortion goes into ``rep["distortion"]`` (``method``, the percentiles, ``score``,
         ``flipped_before_repair``, ``degenerate_before_repair``, ``repaired``, ``warning``,
         ``reason``); a map that cannot be made fold-free rejects the mesh.
+    uv : (nv, 2) float64, optional
+        The mesh's own coordinates for ``param="uv"`` (e.g. OBJ texture coordinates), one
+        row per input vertex; without them ``"uv"`` maps ``V[:, :2]``.
 
     Returns
     -------
@@ -85,28 +89,37 @@ def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False, re
         rep["bowtie_vertices"] = bow
     rep["manifold"] = bool(rep["non_manifold_edges"] == 0 and bow == 0 and not repeated.any())
     if rep["manifold"]:
-        loops = boundary_loop_count(edges, count, nv)
-        rep["boundary_loops"] = loops
-        rep["closed"] = loops == 0
-        if rep["components"] == 1:
-            rep["holes"] = max(loops - 1, 0)
-            rep["genus"] = (2 - rep["euler_characteristic"] - loops) / 2
-    rep["validation"] = _validation(V, F, keep_largest, repair, param, rep)
+        _loop_counts(rep, edges, count, nv)
+    rep["validation"] = _validation(V, F, keep_largest, repair, (param, uv), rep)
     return rep
 
 
-def _validation(V: np.ndarray, F: np.ndarray, keep_largest: bool, repair: bool, param: str | None,
-                rep: dict[str, Any]) -> dict[str, Any]:
+def _loop_counts(rep: dict[str, Any], edges: np.ndarray, count: np.ndarray, nv: int) -> None:
+    """``boundary_loops``, ``closed`` and, with one component, ``holes`` and ``genus`` of a manifold mesh."""
+    loops = boundary_loop_count(edges, count, nv)
+    rep["boundary_loops"] = loops
+    rep["closed"] = loops == 0
+    if rep["components"] == 1:
+        rep["holes"] = max(loops - 1, 0)
+        rep["genus"] = (2 - rep["euler_characteristic"] - loops) / 2
+
+
+def _validation(V: np.ndarray, F: np.ndarray, keep_largest: bool, repair: bool,
+                param: tuple[str | None, np.ndarray | None], rep: dict[str, Any]) -> dict[str, Any]:
     """The verdict of :func:`validate_mesh` (after :func:`repair_mesh` with ``repair``); on success
-    without repair its loop, hole and genus counts go into ``rep``, and with ``param`` the distortion."""
+    without repair its loop, hole and genus counts go into ``rep``, and with ``param = (method, uv)``
+    the distortion."""
     fixed = None
+    method, uv = param
     try:
         if repair:
             fixed = repair_mesh(V, F)
             V, F = fixed.V, fixed.F
+            uv = None if uv is None else np.asarray(uv)[fixed.source_vertex_index]
         vm = validate_mesh(V, F, keep_largest=keep_largest)
-        if param is not None:
-            rep["distortion"] = _distortion(vm, param)
+        if method is not None:
+            uv = None if uv is None or vm.kept is None else np.asarray(uv)[vm.kept]
+            rep["distortion"] = _distortion(vm, method, uv if method == "uv" else None)
     except MeshError as exc:
         out = dict(accepted=False, problems=list(exc.kinds), message=str(exc), repairs=[])
     else:
@@ -118,9 +131,7 @@ def _validation(V: np.ndarray, F: np.ndarray, keep_largest: bool, repair: bool, 
     return out
 
 
-def _distortion(vm: Any, param: str) -> dict[str, Any]:
-    """The distortion of ``param``'s map of the validated mesh ``vm`` (MeshError if it cannot be made)."""
-    from .parameterize import parameterize
-
-    p = parameterize(vm.V, vm.F, param)
+def _distortion(vm: ValidatedMesh, method: str, uv: np.ndarray | None) -> dict[str, Any]:
+    """The distortion of ``method``'s map of the validated mesh ``vm`` (MeshError if it cannot be made)."""
+    p = parameterize(vm.V, vm.F, method, uv=uv)
     return dict(method=p.method, **p.distortion, repaired=p.repaired, warning=p.warning, reason=p.reason)

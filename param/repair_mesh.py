@@ -194,7 +194,11 @@ def repair_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = True) -> R
     copies = np.bincount(source, minlength=nv)
     changes["split_vertices"] = int((copies > 1).sum())
     changes["added_vertices"] = int(source.size - (copies > 0).sum())
-    kept = _largest(Fw, source.size, changes) if keep_largest else np.arange(Fw.shape[0])
+    if keep_largest:
+        kept = _largest(Fw, source.size, changes)
+    else:
+        kept = np.arange(Fw.shape[0])
+        changes.update(dropped_components=0, dropped_component_faces=0)
     used, Fk = np.unique(Fw[kept], return_inverse=True)
     source = source[used]
     changes["dropped_vertices"] = int(nv - np.unique(source).size)

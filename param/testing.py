@@ -76,3 +76,49 @@ def nearly_closed(n_points: int = 2000, *, opening: float = 0.35, holes: int = 2
     F = F[~drop]
     used, inv = np.unique(F, return_inverse=True)
     return P[used], inv.reshape(-1, 3).astype(np.int64)
+
+
+def broken_scan(n_faces: int = 300, *, seed: int = 0) -> tuple[np.ndarray, np.ndarray, dict[str, int]]:
+    """A scan with everything :func:`~trispline.param.repair_mesh` repairs, around one good disk.
+
+    The disk is :func:`bumpy_disk` (its faces come first, its vertices keep their ids); glued
+    to it: three small disks each sharing one boundary vertex (bowties), a fin of two faces
+    on one interior edge (a non-manifold edge), two duplicate faces and one reversed
+    duplicate, a zero-area face on a boundary edge, and a separate small disk.
+
+    Returns ``(V, F, expected)``: ``expected`` holds the disk's ``faces`` and ``vertices``
+    and the counts ``bowtie_vertices``, ``duplicate_faces``, ``zero_area_faces``.
+    """
+    from .validate import validate_mesh
+
+    V0, F0 = bumpy_disk(n_faces, seed=seed)
+    loop = validate_mesh(V0, F0).boundary_loops[0]
+    Vs, Fs, nv = [V0], [F0], V0.shape[0]
+    for k in range(3):  # small disks touching the big one at one boundary vertex each
+        V1, F1 = bumpy_disk(40, seed=seed + k + 1)
+        b1 = validate_mesh(V1, F1).boundary_loops[0][0]
+        target = loop[k * len(loop) // 3]
+        V1 = (V1 - V1[b1]) * 0.3 + V0[target]
+        keep = np.arange(len(V1)) != b1
+        remap = np.full(len(V1), -1)
+        remap[keep] = nv + np.arange(keep.sum())
+        remap[b1] = target
+        Vs.append(V1[keep])
+        Fs.append(remap[F1])
+        nv += int(keep.sum())
+    V, F = np.concatenate(Vs), np.concatenate(Fs)
+    interior = np.flatnonzero(~np.isin(F0, loop).any(1))[0]
+    a, b = F0[interior, 0], F0[interior, 1]
+    mid = 0.5 * (V[a] + V[b])
+    V = np.vstack([V, mid + [0.0, 0.0, 0.5], mid + [0.1, 0.0, 0.6]])
+    F = np.vstack([F, [[a, b, nv], [b, nv + 1, nv]]])  # the fin
+    F = np.vstack([F, F0[[5, 6]], F0[[7]][:, [0, 2, 1]]])  # duplicates, one reversed
+    p, q = loop[1], loop[2]
+    V = np.vstack([V, 0.5 * (V[p] + V[q])])
+    F = np.vstack([F, [[q, p, V.shape[0] - 1]]])  # zero area, on a boundary edge
+    V2, F2 = bumpy_disk(20, seed=seed + 9)
+    F = np.vstack([F, F2 + V.shape[0]])
+    V = np.vstack([V, V2 + 5.0])
+    expected = dict(faces=F0.shape[0], vertices=V0.shape[0], bowtie_vertices=3, duplicate_faces=3,
+                    zero_area_faces=1)
+    return V, F.astype(np.int64), expected

@@ -30,7 +30,8 @@ def add_parser(sub: Any) -> None:
                    help="judge the mesh repair makes of it (bowties split, non-manifold edges cut, zero-area "
                         "and duplicate faces dropped, largest component kept), as fit --repair would")
     p.add_argument("--param", choices=METHODS, default=DEFAULT_METHOD,
-                   help=f"parameterization whose distortion is reported (default {DEFAULT_METHOD})")
+                   help=f"parameterization whose distortion is reported (default {DEFAULT_METHOD}; uv: the "
+                        "file's texture coordinates, else x and y)")
     add_common(p)
     p.set_defaults(func=cmd_info)
 
@@ -86,7 +87,8 @@ def cmd_info(args: argparse.Namespace, ui: UI) -> int:
     from ..io import read_mesh
 
     md = read_mesh(args.mesh)
-    report = inspect_mesh(md.V, md.F, keep_largest=args.keep_largest, repair=args.repair, param=args.param)
+    report = inspect_mesh(md.V, md.F, keep_largest=args.keep_largest, repair=args.repair, param=args.param,
+                          uv=md.uv)
     report["fit"] = _fit_verdict(report.pop("validation"))
     if report.get("distortion", {}).get("warning"):
         ui.warn(report["distortion"]["warning"])

@@ -164,7 +164,11 @@ def read_off(path: Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _ply_min_bytes(header: list[str], ascii_: bool) -> tuple[int, dict[str, int]]:
-    """Fewest bytes the body of a PLY with this header can have, and its element counts."""
+    """Fewest bytes the body of a PLY with this header can have, and its element counts.
+
+    Per value: a digit and a separator in ASCII, the type's size in binary; a list counts
+    its length, and in a ``face`` element three entries (a polygon has at least three).
+    """
     need, counts, row = 0, {}, 0
     name = None
     for tok in [ln.split() for ln in header] + [["element", "", "0"]]:
@@ -176,8 +180,11 @@ def _ply_min_bytes(header: list[str], ascii_: bool) -> tuple[int, dict[str, int]
             if counts[name] < 0:
                 raise ValueError(f"negative count for element {name!r}")
         elif tok[:1] == ["property"] and len(tok) >= 3:
-            # ascii: a digit and a separator per value; binary: the value, or a list's count
-            row += 2 if ascii_ else _PLY_SIZES.get(tok[2] if tok[1] == "list" else tok[1], 1)
+            if tok[1] == "list" and len(tok) >= 4:
+                items = 3 if name == "face" else 0
+                row += 2 * (1 + items) if ascii_ else _PLY_SIZES.get(tok[2], 1) + items * _PLY_SIZES.get(tok[3], 1)
+            else:
+                row += 2 if ascii_ else _PLY_SIZES.get(tok[1], 1)
     counts.pop("", None)
     return need, counts
 

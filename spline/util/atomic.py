@@ -33,8 +33,8 @@ from typing import Callable, Iterator
 
 from trispline.spline.errors import OutputError
 
-__all__ = ["OutputError", "Terminated", "AtomicOutputs", "atomic_path", "same_file", "write_with",
-           "write_bytes", "write_text"]
+__all__ = ["OutputError", "Terminated", "AtomicOutputs", "atomic_path", "check_writable", "same_file",
+           "write_with", "write_bytes", "write_text"]
 
 #: Characters :func:`tempfile.mkstemp` adds to a name (its random part).
 _RANDOM_CHARS = 8
@@ -67,24 +67,40 @@ def _temp_affixes(path: Path, name_max: int) -> tuple[str, str]:
     return "." + os.fsdecode(name) + ".", suffix
 
 
-def _temp_for(path: Path) -> Path:
-    """Create (empty) and return a fresh temporary file beside ``path`` with the same suffix."""
+def check_writable(target: str | os.PathLike, what: str = "") -> Path:
+    """``Path(target)`` if an output can be written there, else :class:`OutputError` saying why.
+
+    Checks, before any work: the folder exists and is writable (for the effective user),
+    the target is not a folder, and its name fits the file system (``NAME_MAX`` bytes).
+    ``what`` names the output in messages (``"the output"``, ``"--mesh-out"``).
+    """
+    path = Path(target)
+    label = f"{what} {path}" if what else str(path)
     folder = path.parent
     try:
         name_max = _name_max(folder) if folder.is_dir() else None
+        size = len(os.fsencode(path.name))
+        if name_max is not None and size > name_max:
+            raise OutputError(f"cannot write {label}: the file name has {size} bytes, more than the "
+                              f"{name_max} the file system allows")
+        if name_max is None:
+            raise OutputError(f"cannot write {label}: folder {folder} does not exist")
+        if path.is_dir():
+            raise OutputError(f"cannot write {label}: it is a folder")
     except OSError as exc:  # e.g. a folder name past the limit
-        raise OutputError(f"cannot write {path}: {exc.strerror or exc}") from None
-    if name_max is None:
-        raise OutputError(f"cannot write {path}: folder {folder} does not exist")
-    size = len(os.fsencode(path.name))
-    if size > name_max:
-        raise OutputError(f"cannot write {path}: the file name has {size} bytes, more than the "
-                          f"{name_max} the file system allows")
-    if path.is_dir():
-        raise OutputError(f"cannot write {path}: it is a folder")
-    prefix, suffix = _temp_affixes(path, name_max)
+        raise OutputError(f"cannot write {label}: {exc.strerror or exc}") from None
+    effective = os.access in os.supports_effective_ids
+    if not os.access(folder, os.W_OK | os.X_OK, effective_ids=effective):
+        raise OutputError(f"cannot write {label}: folder {folder} is not writable")
+    return path
+
+
+def _temp_for(path: Path) -> Path:
+    """Create (empty) and return a fresh temporary file beside ``path`` with the same suffix."""
+    check_writable(path)
+    prefix, suffix = _temp_affixes(path, _name_max(path.parent))
     try:
-        fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=folder)
+        fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=path.parent)
     except OSError as exc:
         raise OutputError(f"cannot write {path}: {exc.strerror or exc}") from None
     os.close(fd)

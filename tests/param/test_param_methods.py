@@ -1,0 +1,185 @@
+"""SLIM and auto parameterization, the distortion report, and the domain in the user's frame."""
+from __future__ import annotations
+
+import importlib
+
+import numpy as np
+import pytest
+
+from trispline.param import (
+    UVTransform, distortion_report, parameterize, reverse_faces, slim_uv, user_domain, validate_mesh,
+)
+from trispline.param.testing import bumpy_disk, lift, nearly_closed
+from trispline.spline.errors import InputError
+from trispline.spline.surface import SplineSurface
+from trispline.spline.testing.domains import random_delaunay
+from trispline.spline.tolerances import ANGLE_DISTORTION_WARN, AREA_DISTORTION_WARN
+
+from test_param import check_domain
+from test_param_data import data_mesh, needs_data
+
+#: The module (the package's ``parameterize`` attribute is the function of that name).
+parameterize_module = importlib.import_module("trispline.param.parameterize")
+
+
+# ------------------------------------------------------------------------------ slim
+@pytest.mark.parametrize("mesh", ["disk", "holes", "nearly_closed"])
+def test_slim_is_fold_free_and_nearly_conformal(mesh):
+    V, F = {"disk": lambda: bumpy_disk(600), "holes": lambda: lift(*random_delaunay(300, holes=2, seed=2)),
+            "nearly_closed": lambda: nearly_closed(1500)}[mesh]()
+    p = parameterize(V, F, "slim")
+    check_domain(p, F)
+    assert p.method == "slim" and p.repaired is None and p.warning is None
+    assert p.distortion["angle_max"] < 2.0  # conformal energy: close to LSCM's angles
+    assert p.distortion["score"] == p.distortion["angle_max"]
+
+
+def test_slim_uv_starts_from_tutte_and_lowers_the_angle_distortion():
+    V, F = nearly_closed(1500)
+    vm = validate_mesh(V, F)
+    one = slim_uv(vm, max_iterations=1)
+    many = slim_uv(vm)
+    d1, d2 = distortion_report(V, F, one), distortion_report(V, F, many)
+    assert d1["flipped"] == d2["flipped"] == 0
+    assert d2["angle_p99"] < d1["angle_p99"]
+
+
+# ------------------------------------------------------------------------------ auto
+def test_auto_keeps_lscm_when_it_is_good():
+    V, F = nearly_closed(1500)
+    lscm = parameterize(V, F, "lscm")
+    auto = parameterize(V, F, "auto")
+    assert auto.method == "lscm" and lscm.distortion["score"] <= ANGLE_DISTORTION_WARN
+    np.testing.assert_array_equal(auto.uv, lscm.uv)  # the same map, bit for bit
+    assert auto.reason.startswith("auto chose lscm") and auto.reason in auto.messages
+    assert set(auto.candidates) == {"lscm"}
+
+
+def test_auto_ranks_every_map_when_lscm_is_not_good(monkeypatch):
+    monkeypatch.setattr(parameterize_module, "ANGLE_DISTORTION_WARN", 1.0)  # nothing is good now
+    V, F = lift(*random_delaunay(200, holes=1, seed=3))
+    auto = parameterize(V, F, "auto")
+    assert set(auto.candidates) == {"lscm", "harmonic", "slim"}
+    scores = {k: d["score"] for k, d in auto.candidates.items()
+              if d["flipped_before_repair"] + d["degenerate_before_repair"] == 0}
+    assert auto.method == min(scores, key=scores.get)
+    check_domain(auto, F)
+    for k in auto.candidates:
+        if k != auto.method:
+            assert f"{k} score" in auto.reason
+
+
+@needs_data("halftunnel.off")
+def test_auto_passes_over_a_folded_lscm():
+    m = data_mesh("halftunnel.off")
+    auto = parameterize(m.V, m.F, "auto")
+    assert auto.candidates["lscm"]["flipped_before_repair"] > 0
+    assert auto.method == "slim" and auto.distortion["flipped_before_repair"] == 0
+    assert "1 folds repaired" in auto.reason and auto.warning is None
+
+
+# ------------------------------------------------------------------------ distortion
+def test_distortion_report_of_an_isometry_and_of_a_fold():
+    uv, F = random_delaunay(80, seed=1)
+    V = np.column_stack([uv, np.zeros(len(uv))])
+    rep = distortion_report(V, F, uv * 3.0)  # a similarity: no distortion at all
+    for k in ("angle_p50", "angle_max", "area_p50", "area_max", "score"):
+        assert rep[k] == pytest.approx(1.0, abs=1e-9), k
+    assert rep["flipped"] == rep["degenerate"] == 0 and rep["warning"] is None
+    folded = uv.copy()
+    inner = np.setdiff1d(np.arange(len(uv)), validate_mesh(V, F).boundary_loops[0])[0]
+    folded[inner] += 5.0
+    rep = distortion_report(V, F, folded)
+    assert rep["flipped"] > 0 and "folded triangles" in rep["warning"]
+
+
+def test_warning_names_what_is_distorted():
+    base = dict(angle_p50=1.0, angle_p90=1.0, angle_p99=1.0, angle_max=1.0, area_p50=1.0, area_p90=1.0,
+                area_p99=1.0, area_max=1.0)
+    from trispline.param.distortion import warning
+
+    assert warning(base) is None
+    sheared = dict(base, angle_max=2 * ANGLE_DISTORTION_WARN)
+    assert "angle distortion max" in warning(sheared, method="lscm") and "--param auto" in warning(sheared, method="lscm")
+    assert "--param auto" not in warning(sheared, method="auto")
+    shrunk = dict(base, area_p99=2 * AREA_DISTORTION_WARN, area_max=3 * AREA_DISTORTION_WARN)
+    assert "area distortion p99" in warning(shrunk) and "spike" not in warning(shrunk)
+
+
+@pytest.mark.parametrize("V, F, uv, match", [
+    (np.zeros((3, 2)), [[0, 1, 2]], np.zeros((3, 2)), r"V must have shape \(n, 3\)"),
+    (np.zeros((3, 3)), [[0, 1, 3]], np.zeros((3, 2)), r"F refer to ids outside \[0, 3\)"),
+    (np.zeros((3, 3)), [[0, 1, 2]], np.zeros((4, 2)), r"uv must have shape \(3, 2\)"),
+    (np.zeros((3, 3)), [[0, 1, 2]], np.full((3, 2), np.nan), "uv has non-finite entries"),
+    (np.zeros((3, 3)), np.zeros((0, 3), int), np.zeros((3, 2)), "at least 1 row"),
+])
+def test_distortion_report_refuses_bad_arrays(V, F, uv, match):
+    with pytest.raises(InputError, match=match):
+        distortion_report(V, F, uv)
+
+
+# --------------------------------------------------------------- the user's domain
+def _net_over(p, seed=0) -> np.ndarray:
+    """An exactly C1 net over ``p``'s normalised domain (a random smooth-ish quintic per face)."""
+    from trispline.spline.propagation import build_space
+
+    space = build_space(p.uv, p.faces)
+    free = np.random.default_rng(seed).normal(size=(space.n_free, 3))
+    return space.control_points(free)
+
+
+@pytest.mark.parametrize("mirror", [False, True])
+def test_user_domain_evaluates_at_the_users_own_uv(mirror):
+    uv0, F = random_delaunay(150, holes=1, seed=7)
+    xy = uv0 * [250.0, 40.0] + [6.1e5, 5.2e6]  # a terrain tile in UTM-like coordinates
+    if mirror:
+        xy = xy * [-1.0, 1.0]  # clockwise in the user's frame: parameterize mirrors it
+    V, F = lift(xy, F, height=lambda p: 1e-3 * (p[:, 0] - p[:, 0].mean()))
+    p = parameterize(V, F, "uv")
+    assert p.transform.mirrored is mirror
+    ctrl = _net_over(p)
+    normalised = SplineSurface(p.uv, p.faces, ctrl)
+    uv, faces, ctrl_u = user_domain(p, ctrl)
+    np.testing.assert_array_equal(uv, xy)  # exactly the user's coordinates
+    user = SplineSurface(uv, faces, ctrl_u)
+    # the same surface: at every vertex and at points inside faces, in each frame's coordinates
+    np.testing.assert_allclose(user.evaluate_uv(xy), normalised.evaluate_uv(p.uv), rtol=0, atol=1e-8)
+    fi = np.arange(faces.shape[0])
+    bary = np.random.default_rng(1).dirichlet(np.ones(3), size=fi.size)
+    inside = (bary[:, :, None] * xy[p.faces[fi]]).sum(1)
+    inside_n = (bary[:, :, None] * p.uv[p.faces[fi]]).sum(1)
+    # points given to 1e-16 x 5e6 m locate to ~1e-10 of a 20 m triangle; the random net is steep
+    np.testing.assert_allclose(user.evaluate_uv(inside), normalised.evaluate_uv(inside_n), rtol=0, atol=1e-6)
+
+
+def test_user_domain_keeps_the_normalised_domain_of_the_other_methods():
+    V, F = bumpy_disk(200)
+    p = parameterize(V, F, "lscm")
+    ctrl = _net_over(p)
+    uv, faces, out = user_domain(p, ctrl)
+    assert uv is p.uv and faces is p.faces and out is ctrl
+
+
+def test_transform_round_trips_through_a_surface_file(tmp_path):
+    V, F = bumpy_disk(200)
+    p = parameterize(V, F, "harmonic")
+    t = p.transform
+    np.testing.assert_allclose(t.to_output(p.uv), t.to_raw(p.uv) * ([-1, 1] if t.mirrored else [1, 1]))
+    s = SplineSurface(p.uv, p.faces, _net_over(p), extras=t.as_extras())
+    s.save(tmp_path / "s.npz")
+    back = UVTransform.from_extras(SplineSurface.load(tmp_path / "s.npz").extras)
+    np.testing.assert_array_equal(back.centre, t.centre)
+    assert back.scale == t.scale and back.mirrored == t.mirrored
+    assert UVTransform.from_extras({}) is None
+
+
+def test_reverse_faces_is_the_same_patch():
+    p = parameterize(*bumpy_disk(100), "lscm")
+    ctrl = _net_over(p)
+    faces_r, ctrl_r = reverse_faces(p.faces, ctrl)
+    bary = np.random.default_rng(0).dirichlet(np.ones(3), size=p.faces.shape[0])
+    fi = np.arange(p.faces.shape[0])
+    a = SplineSurface(p.uv, p.faces, ctrl).evaluate(fi, bary)
+    mirrored_uv = p.uv * [-1.0, 1.0]  # reversed faces are CCW in the mirrored domain
+    b = SplineSurface(mirrored_uv, faces_r, ctrl_r).evaluate(fi, bary[:, [0, 2, 1]])
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-13)

@@ -1,0 +1,86 @@
+"""repair_mesh: a bowtie-ridden, multi-component scan repairs into what validate_mesh and
+parameterize accept, with the map back to the input vertices; clean meshes pass unchanged."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from trispline.param import MeshError, fold_mask, inspect_mesh, parameterize, repair_mesh, validate_mesh
+from trispline.param.testing import broken_scan, bumpy_disk, lift
+from trispline.spline.testing.domains import random_delaunay
+
+
+def test_broken_scan_repairs_into_its_disk():
+    V, F, expected = broken_scan()
+    rep = inspect_mesh(V, F)
+    assert rep["bowtie_vertices"] == expected["bowtie_vertices"] and rep["non_manifold_edges"] > 0
+    assert set(rep["validation"]["problems"]) >= {"components", "zero_area", "non_manifold_edges", "bowtie_vertices"}
+    r = repair_mesh(V, F)
+    V0, F0 = bumpy_disk(300)
+    # the good disk comes back exactly: same faces, same vertex order, the map is the identity
+    np.testing.assert_array_equal(r.F, F0)
+    np.testing.assert_array_equal(r.source_vertex_index, np.arange(V0.shape[0]))
+    np.testing.assert_array_equal(r.source_face_index, np.arange(F0.shape[0]))
+    assert r.changes["duplicate_faces"] == expected["duplicate_faces"]
+    assert r.changes["zero_area_faces"] == expected["zero_area_faces"]
+    assert r.changes["non_manifold_edges"] == 1  # the fin's edge
+    assert r.changes["split_vertices"] == expected["bowtie_vertices"] + 2  # and the fin edge's two ends
+    assert r.changes["dropped_components"] == 5  # three glued disks, the fin, the separate disk
+    assert r.changed and len(r.messages) == 6
+    assert "dropped 3 duplicate faces" in " ".join(r.messages)
+    vm = validate_mesh(r.V, r.F)
+    p = parameterize(vm.V, vm.F)
+    fl, dg = fold_mask(p.uv, p.faces)
+    assert not fl.any() and not dg.any()
+
+
+def test_map_back_to_input_vertices():
+    V, F, _ = broken_scan(seed=2)
+    r = repair_mesh(V, F, keep_largest=False)
+    np.testing.assert_array_equal(r.V, V[r.source_vertex_index])
+    np.testing.assert_array_equal(r.source_vertex_index[r.F], F[r.source_face_index])
+    assert r.changes["dropped_components"] == 0
+    rep = inspect_mesh(r.V, r.F)
+    assert rep["manifold"] and rep["non_manifold_edges"] == 0 and rep["bowtie_vertices"] == 0
+    assert rep["components"] == 6
+
+
+def test_clean_mesh_is_unchanged():
+    V, F = lift(*random_delaunay(200, holes=2, seed=1))
+    r = repair_mesh(V, F)
+    assert not r.changed and r.messages == []
+    np.testing.assert_array_equal(r.F, F)
+    np.testing.assert_array_equal(r.V, V)
+
+
+def test_non_finite_and_repeated_faces_are_dropped():
+    V, F = bumpy_disk(100)
+    V = V.copy()
+    V[F[0, 0]] = np.nan
+    F = np.vstack([F, [[F[1, 0], F[1, 0], F[1, 1]]]])
+    r = repair_mesh(V, F)
+    assert r.changes["non_finite_faces"] == int(np.isin(F, F[0, 0]).any(1).sum())
+    assert r.changes["repeated_vertex_faces"] == 1
+    assert np.isfinite(r.V).all()
+    validate_mesh(r.V, r.F)
+
+
+def test_refusals():
+    V, F = bumpy_disk(50)
+    with pytest.raises(MeshError, match=r"F refer to ids outside \[0, "):
+        repair_mesh(V, F + V.shape[0])
+    with pytest.raises(MeshError, match=r"F must have shape \(nf, 3\)"):
+        repair_mesh(V, F[:, :2])
+    with pytest.raises(MeshError, match="integer"):
+        repair_mesh(V, F.astype(float))
+    tri = np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]])
+    with pytest.raises(MeshError, match="repair left no faces"):
+        repair_mesh(tri, np.array([[0, 1, 2]]))
+
+
+def test_inspect_judges_the_repaired_mesh():
+    V, F, _ = broken_scan()
+    rep = inspect_mesh(V, F, repair=True, param="lscm")
+    assert rep["validation"]["accepted"] and rep["validation"]["mesh_repair"]["changes"]["duplicate_faces"] == 3
+    assert rep["distortion"]["method"] == "lscm" and rep["distortion"]["warning"] is None
+    assert list(rep)[-1] == "validation"
