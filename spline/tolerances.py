@@ -75,3 +75,17 @@ CHECK_TOLERANCE = 1e-9
 CAD_TOLERANCE = 1e-7
 #: Zebra pictures: normals with |N . W| below this (almost parallel to the light panel) stay grey.
 ZEBRA_MIN_COS = 1e-3
+
+# ---------------------------------------------------------------------- approximation
+#: Gauss--Newton tolerances of a robust approximation (data normalised to unit size): a
+#: step below 1e-8 of the size moves the surface far less than any scan's noise, and the
+#: gradient then passes the fit's CONVERGED_GRAD_RTOL test (at 1e-7 it did not, with moving corners).
+APPROX_GN_RTOL = 1e-8
+APPROX_GN_ATOL = 1e-8
+#: ... and its convergence test: the gradient below this times the gradient at zero (the
+#: fit's CONVERGED_GRAD_RTOL is 1e-6; Cauchy's Gauss--Newton, linearly convergent on the
+#: outliers, stopped by the step test at about 2e-6 on the synthetic scans).
+APPROX_CONVERGED_GRAD_RTOL = 1e-5
+#: Relative residual of the conjugate-gradient solve in each robust Gauss--Newton step
+#: (inexact Gauss--Newton: 1e-2 took as many steps as 1e-8, in half the time).
+APPROX_CG_RTOL = 1e-2

@@ -85,7 +85,21 @@ def _stored_fit(ex: dict, corners: np.ndarray) -> dict[str, Any]:
         D = np.asarray(ex["data_vertices"], float)
         if D.shape == corners.shape:
             report["max_interpolation_error"] = float(np.abs(corners - D).max())
+    if "approx_deviation_names" in ex and "approx_deviation" in ex:  # an approximation (fit --tolerance)
+        report["approximation"] = _stored_approximation(ex)
     return report
+
+
+def _stored_approximation(ex: dict) -> dict[str, Any]:
+    """An approximation's stored deviation statistics and settings (``approx_*`` keys)."""
+    out: dict[str, Any] = dict(deviation=dict(zip([str(s) for s in np.atleast_1d(ex["approx_deviation_names"])],
+                                                  [float(v) for v in np.atleast_1d(ex["approx_deviation"])])))
+    for key in ("approx_loss", "approx_corners", "approx_tolerance", "approx_budget", "approx_met", "approx_stop",
+                "approx_noise"):
+        if key in ex:
+            v = np.asarray(ex[key]).item()
+            out[key[7:]] = None if isinstance(v, float) and not np.isfinite(v) else v
+    return out
 
 
 def _check_text(d: dict) -> str:
@@ -100,6 +114,12 @@ def _check_text(d: dict) -> str:
         lines.append("  stored energies: " + ", ".join(f"{k} {fmt(v)}" for k, v in d["energies"].items()))
     if "max_interpolation_error" in d:
         lines.append(f"  max interpolation error: {fmt(d['max_interpolation_error'])}")
+    if "approximation" in d:
+        a, dev = d["approximation"], d["approximation"]["deviation"]
+        tol = "no tolerance" if a.get("tolerance") is None else \
+            f"tolerance {fmt(a['tolerance'])} {'met' if a.get('met') else 'NOT met'}"
+        lines.append(f"  stored deviation of the scan (inliers): max {fmt(dev.get('max'))}, RMS {fmt(dev.get('rms'))} "
+                     f"({tol}; {int(dev.get('rejected', 0))} rejected; loss {a.get('loss')}, corners {a.get('corners')})")
     verdict = ("OK: C1 within tolerance" if d["ok"]
                else f"FAILED: {', '.join(d['failed'])} above tolerance")
     lines.append(f"  {verdict} {d['tolerance']:g}")

@@ -23,6 +23,7 @@ from trispline.param import DEFAULT_METHOD, METHODS
 from ..errors import CommandFailed, FitError, UsageError
 from ..stages import FIT_STAGES
 from ..weights import FitWeights
+from . import approximate
 from .common import EXIT_OK, UI, add_common, check_output, distinct, fmt, nonneg_float, positive_int
 
 __all__ = ["WEIGHT_FIELDS", "FIT_STAGES", "EXAMPLE_FACES", "add_parsers", "cmd_fit", "cmd_demo"]
@@ -48,6 +49,7 @@ def add_parsers(sub: Any) -> None:
                    help=f"triangles of the built-in scan (default {EXAMPLE_FACES})")
     p.add_argument("-o", "--output", required=True, metavar="SURFACE", help="surface file to write (.npz or .json)")
     _add_fit_options(p)
+    approximate.add_options(p)
     add_common(p)
     p.set_defaults(func=cmd_fit)
 
@@ -99,6 +101,9 @@ def cmd_fit(args: argparse.Namespace, ui: UI) -> int:
         control_net=check_output(args.control_net, MESH_FORMATS, "--control-net"),
     )
     distinct(list(outputs.values()))
+    if approximate.requested(args):  # --tolerance / --tolerance-rel / --vertices: fit/cli/approximate.py
+        return approximate.run(args, ui, outputs, load=_load_input, write=_write, extras=_with_fit_extras,
+                               fields=WEIGHT_FIELDS)
     data = _fit(args, ui, outputs)
     ui.result(data, _fit_text)
     return EXIT_OK

@@ -12,16 +12,19 @@ from types import ModuleType
 
 import numpy as np
 
-from . import angle, bend, data, local, tilt
+from . import angle, bend, data, local, robust, tilt
 from .context import TermContext
 from .normal import NormalParts
 
-__all__ = ["MODULES", "TERMS", "setup_terms", "term_residuals", "term_energies", "normal_parts", "is_nonlinear"]
+__all__ = ["MODULES", "TERMS", "DATA_LOSSES", "setup_terms", "term_residuals", "term_energies", "normal_parts",
+           "is_nonlinear"]
 
 #: The term modules, in report order.
 MODULES: tuple[ModuleType, ...] = (bend, tilt, local, data, angle)
 #: Their names.
 TERMS: tuple[str, ...] = tuple(m.NAME for m in MODULES)
+#: The data term's module per loss (the approximation's choice; ``fit_surface`` uses plain ``data``).
+DATA_LOSSES: dict[str, ModuleType] = {"l2": data, **{loss: robust for loss in robust.LOSSES}}
 
 
 def setup_terms(ctx: TermContext) -> dict[str, dict[str, np.ndarray]]:

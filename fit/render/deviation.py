@@ -82,9 +82,13 @@ def deviation(points: np.ndarray, V: np.ndarray, F: np.ndarray) -> np.ndarray:
 
 
 def stored_data_mesh(surface: "SplineSurface") -> tuple[np.ndarray, np.ndarray] | None:
-    """The fitted data mesh stored with a fit (``data_vertices`` + the surface's faces), if any."""
+    """The fitted data mesh stored with a fit (``data_vertices`` + the surface's faces), if any.
+
+    An approximation (``approx_scan_vertices`` in the file) has none: its corners' data vertices with
+    the coarse faces are not the scan it approximates (render it with ``--mesh`` the scan).
+    """
     D = surface.extras.get("data_vertices")
-    if D is None:
+    if D is None or "approx_scan_vertices" in surface.extras:  # an approximation: its data is the scan
         return None
     D = np.asarray(D, np.float64)
     if D.shape != (surface.n_vertices, 3):

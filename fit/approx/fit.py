@@ -1,0 +1,176 @@
+"""One coarse fit: the spline over a fixed coarse domain that fits every scan point.
+
+    fit = fit_domain(dom, V, loss="huber", scale=1.345 * dom.stats.noise, corners="fit")   # CoarseFit
+    fit.surface, fit.energies, fit.iterations, fit.converged
+
+Every scan vertex is located in the coarse domain at its uv (:meth:`CoarseDomain.locate`);
+one outside the coarse polygon (between a boundary chord and the scan's outline) keeps
+its own uv as an extrapolation of the nearest boundary patch, unless that is farther
+than :data:`EXTRAPOLATION` outside it in barycentric terms (then it sits on the chord).
+The problem (:mod:`.problem`) is solved in coordinates normalised to the scan's size:
+the plain loss by one solve with the host factor of its normal matrix (its exact
+minimum; :mod:`trispline.fit.solve`), a robust loss by optimistix Gauss--Newton started
+there, each step a conjugate-gradient solve preconditioned by that same factor.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+
+from trispline.spline.errors import InputError
+from trispline.spline.propagation import SplineSpace, build_space
+from trispline.spline.surface import SplineSurface
+from trispline.spline.tolerances import APPROX_CG_RTOL, APPROX_CONVERGED_GRAD_RTOL, APPROX_GN_ATOL, APPROX_GN_RTOL
+
+from ..solve import FactorSolver, SparseCholesky
+from ..weights import TERM_WEIGHTS, FitWeights
+from .domain import CoarseDomain
+from .problem import CORNER_MODES, ApproxProblem, residual_function, robust_points, setup_problem
+
+__all__ = ["ApproxWeights", "CoarseFit", "fit_domain", "scan_parameters", "APPROX_WEIGHTS", "EXTRAPOLATION"]
+
+@dataclass(frozen=True)
+class ApproxWeights(FitWeights):
+    """:class:`~trispline.fit.weights.FitWeights` with the curvature variation; what the approximation uses.
+
+    Attributes
+    ----------
+    bend : thin-plate energy; variation : curvature variation (quadrics cost nothing); data : the
+        data term. The interpolation's ``tilt``, ``local`` and ``angle`` are not used (they pull
+        toward local fits of the coarse vertices' data alone).
+    """
+
+    bend: float = 0.0
+    tilt: float = 0.0
+    local: float = 0.0
+    data: float = 300.0
+    variation: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in TERM_WEIGHTS + ("variation",):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v >= 0):
+                raise InputError(f"weight {name} must be finite and >= 0, got {v}")
+        if self.bend <= 0 and self.variation <= 0:
+            raise InputError("at least one of the bend and variation weights must be positive")
+
+
+#: Default weights of the approximation: curvature variation and data.
+APPROX_WEIGHTS = ApproxWeights()
+#: The robust Gauss--Newton steps' linear solve (:class:`~trispline.fit.solve.FactorSolver`): ``"pcg"``,
+#: CG on the exact Gauss--Newton matrix preconditioned by the reweighted factor, or ``"direct"``, the
+#: factor alone (an inexact Gauss--Newton step; a quarter less to compile, more steps).
+GN_MODE = "pcg"
+#: A scan point outside the coarse polygon extrapolates its patch down to this barycentric coordinate.
+EXTRAPOLATION = -0.5
+
+
+@dataclass(frozen=True)
+class CoarseFit:
+    """A spline fitted to the scan over one coarse domain.
+
+    Attributes
+    ----------
+    surface : SplineSurface over ``(dom.uv, dom.faces)``
+    free : (n_free, 3) the free points; space : SplineSpace
+    energies : dict term -> energy (``bend``, ``variation``, ``data``; weights included, data units)
+    iterations : Gauss--Newton steps (0: the plain loss, solved directly)
+    converged : bool
+    n_unknowns : free points solved for
+    """
+
+    surface: SplineSurface
+    free: np.ndarray
+    space: SplineSpace
+    energies: dict
+    iterations: int
+    converged: bool
+    n_unknowns: int
+
+
+def scan_parameters(dom: CoarseDomain) -> tuple[np.ndarray, np.ndarray]:
+    """``face (n,)``, ``bary (n, 3)`` of every scan vertex in the coarse domain (see the module docstring)."""
+    uv = dom.scan_uv
+    hit = dom.locate(uv)
+    face, bary = hit.face.copy(), hit.bary.copy()
+    out = np.flatnonzero(hit.clamped)
+    if out.size:
+        own = dom.locator.locator.bary_in(face[out], uv[out])
+        near = own.min(1) >= EXTRAPOLATION
+        bary[out[near]] = own[near]
+    return face, bary
+
+
+def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX_WEIGHTS, loss: str = "huber",
+               scale: float | np.ndarray | None = None, corners: str = "data", located: tuple[np.ndarray, np.ndarray] | None = None,
+               point_weight: np.ndarray | None = None, gauss_newton: bool = True,
+               solver: optx.AbstractLeastSquaresSolver | None = None, max_steps: int = 50) -> CoarseFit:
+    """Fit the spline over ``dom`` to every scan vertex ``V (n, 3)``.
+
+    Parameters
+    ----------
+    loss : ``"l2"``, ``"huber"`` or ``"cauchy"``; scale : the robust loss's scale (data units, > 0),
+        one or ``(n,)`` one per scan vertex (e.g. ``TUNING[loss] * dom.stats.noise``,
+        :data:`~trispline.fit.energy.robust.TUNING`; the pipeline's: :func:`~.pipeline.loss_scale`)
+    corners : ``"data"`` (corner points = their scan vertices) or ``"fit"``
+    located : ``(face (n,), bary (n, 3))`` from :func:`scan_parameters`, if already known
+    point_weight : (n,) reweighting of the plain normal equations (the robust loss's weights at
+        an earlier fit): their solution starts Gauss--Newton and their factor preconditions it
+    gauss_newton : False: stop at that reweighted least-squares solution (one IRLS step, the
+        refinement rounds' cheap fit); True: the robust loss's minimum
+    solver : an optimistix least-squares solver for the robust loss (default Gauss--Newton,
+        factor-preconditioned CG); max_steps : its step cap
+    """
+    if corners not in CORNER_MODES:
+        raise ValueError(f"corners must be one of {', '.join(CORNER_MODES)}, got {corners!r}")
+    if loss != "l2" and scale is None:
+        raise ValueError(f"the {loss} loss needs its scale (data units)")
+    face, bary = scan_parameters(dom) if located is None else located
+    centre = 0.5 * (V.min(0) + V.max(0))
+    size = float(np.ptp(V, axis=0).max()) or 1.0
+    space = build_space(dom.triangulation)
+    points = robust_points(face, bary, (V - centre) / size, loss, (size if scale is None else np.asarray(scale)) / size)
+    corner_xyz = (V[dom.vertices] - centre) / size if corners == "data" else None
+    prob = setup_problem(space, points, corner_xyz, weights, loss, point_weight)
+    factor = SparseCholesky(prob.H)
+    x, steps, ok = _solve(prob, factor, solver, max_steps, gauss_newton)
+    free = np.zeros((space.n_free, 3))
+    if corner_xyz is not None:
+        free[space.corner_free] = V[dom.vertices]
+    k = prob.unknowns.size
+    free[prob.unknowns] = x[:k] * size + centre
+    ctrl = space.control_points(free)
+    energies = prob.energies((ctrl - centre) / size, size)
+    surface = SplineSurface(dom.uv, dom.faces, ctrl)
+    return CoarseFit(surface=surface, free=free, space=space, energies=energies, iterations=steps, converged=ok,
+                     n_unknowns=k)
+
+
+def _half_sum_squares(x: jax.Array, args: dict) -> jax.Array:
+    return 0.5 * sum(jnp.sum(r * r) for r in residual_function("huber")(x, args).values())
+
+
+_gradient = jax.jit(jax.grad(_half_sum_squares))
+
+
+def _solve(prob: ApproxProblem, factor: SparseCholesky, solver, max_steps: int, gauss_newton: bool
+           ) -> tuple[np.ndarray, int, bool]:
+    """``(x (kp, 3), Gauss--Newton steps, converged)``: the (reweighted) plain optimum, then
+    optimistix for a robust loss."""
+    x0 = factor.solve(prob.rhs)
+    if not prob.nonlinear or not gauss_newton:
+        return x0, 0, True
+    if solver is None:
+        solver = optx.GaussNewton(rtol=APPROX_GN_RTOL, atol=APPROX_GN_ATOL, norm=optx.rms_norm,
+                                  linear_solver=FactorSolver(factor, mode=GN_MODE, rtol=APPROX_CG_RTOL))
+    sol = optx.least_squares(residual_function(prob.loss), solver, jnp.asarray(x0), prob.args,
+                             max_steps=max_steps, throw=False)
+    x = sol.value
+    gnorm = float(jnp.abs(_gradient(x, prob.args)).max())
+    gref = float(jnp.abs(_gradient(jnp.zeros_like(x), prob.args)).max()) or 1.0
+    ok = sol.result == optx.RESULTS.successful and gnorm <= APPROX_CONVERGED_GRAD_RTOL * gref
+    return np.asarray(x), int(sol.stats["num_steps"]), bool(ok)

@@ -1,0 +1,444 @@
+"""Approximate a dense scan by a coarse, fair C1 spline within a tolerance.
+
+    res = approximate_surface(V, F, tolerance_rel=1e-3)        # ApproxResult
+    res.surface.save("scan.npz")                                # with the deviation and settings as extras
+    res.stats["deviation"], res.stats["met"], res.vertices      # inliers' deviation, tolerance met, scan ids
+
+Pipeline: parameterize the scan (on a lightly smoothed copy, :data:`PARAM_SMOOTHING`
+umbrella steps, so that scanner spikes do not fold the map) -> a coarse domain on a
+subset of the scan's vertices (:func:`~.domain.coarse_domain`) -> rounds of fit
+(:func:`~.fit.fit_domain`), true deviation and refinement (:mod:`.refine`) until the
+inliers are within the tolerance or the budget is spent -> with a robust loss, the
+final robust fit by optimistix Gauss--Newton. The rounds fit a robust loss by one
+reweighted least-squares step each (weights from the previous round's residuals), so
+the vertex count can change every round without compiling anything; the final fit
+converges the robust loss itself, preconditioned by the last reweighted factor. The
+state returned is the one of smallest maximum inlier deviation (refinement never makes
+it worse).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+import scipy.sparse as sp
+
+from trispline.param import DEFAULT_METHOD
+from trispline.spline.checks import as_array
+from trispline.spline.continuity import continuity_report
+from trispline.spline.errors import InputError
+from trispline.spline.index import CORNER
+from trispline.spline.surface import SplineSurface
+from trispline.spline.topology import signed_areas
+from trispline.spline.util.timer import StageTimer
+
+from ..energy.robust import LOSSES, TUNING, inlier_weight
+from ..solve import require_x64
+from ..weights import FitWeights
+from .analysis import SPIKE_LEVELS
+from .deviation import Deviation, summary
+from .domain import DEFAULT_FRACTION, CoarseDomain, coarse_domain, insert
+from .fit import APPROX_WEIGHTS, fit_domain, scan_parameters
+from .problem import CORNER_MODES
+from .refine import Round, measure, pick_vertices
+
+__all__ = ["ApproxResult", "approximate_surface", "APPROX_STAGES", "LOSS_NAMES", "DEFAULT_BUDGET_FRACTION",
+           "surface_extras"]
+
+#: Every data loss: the plain one and the robust ones.
+LOSS_NAMES = ("l2",) + LOSSES
+#: Stages reported to ``progress`` and timed in ``ApproxResult.timings``.
+APPROX_STAGES = ("parameterize", "domain", "fit", "deviation", "refine", "final")
+#: Vertex budget with a tolerance and no ``n_vertices``: this fraction of the scan.
+DEFAULT_BUDGET_FRACTION = 0.10
+#: With a tolerance, the first coarse domain has this fraction of the scan (at most the budget).
+INITIAL_FRACTION = 0.005
+#: ... and at least this many vertices.
+INITIAL_MIN = 24
+#: Refinement rounds at most.
+MAX_ROUNDS = 12
+#: Reweighted least-squares steps after each round's plain fit (a robust loss).
+IRLS_STEPS = 1
+
+#: Uniform-Laplacian steps on the interior vertices before parameterizing (boundary fixed).
+PARAM_SMOOTHING = 3
+#: A boundary vertex this many median edge lengths off its neighbours' midpoint is a spike (the
+#: parameterization moves it there; a corner of the outline is within one).
+BOUNDARY_SPIKE = 3.0
+#: The robust loss's scale is at least this times the diagonal (noise-free data).
+MIN_SCALE = 1e-9
+
+
+@dataclass(frozen=True)
+class ApproxResult:
+    """Outcome of :func:`approximate_surface`.
+
+    Attributes
+    ----------
+    surface : SplineSurface over the coarse domain (extras: :func:`surface_extras`)
+    domain : the CoarseDomain (coarse triangulation ``domain.uv``, ``domain.faces``)
+    vertices : (k,) scan vertex of each coarse vertex (``domain.vertices``)
+    deviation : Deviation of every scan vertex (closest points on the surface)
+    rejected : (n,) bool, the points the robust loss rejected (outliers; the tolerance does not apply)
+    stats : deviation (the inliers' :func:`~.deviation.summary`), deviation_all, rejected, vertices,
+        patches, tolerance, budget, met, stop (why the refinement stopped), rounds, noise, scale
+    energies : dict term -> energy (``bend``, ``data``; data units); iterations : Gauss--Newton steps
+    converged : bool; history : one record per round (vertices, max, rms, rejected, seconds)
+    timings : dict stage -> seconds; parameterization : the Parameterization (None with ``uv``)
+    settings : the options, as stored in the surface file
+    uv, faces, ctrl : the coarse domain and the control points ``(f, 21, 3)``
+    c1_residual : worst C1 residual (relative); max_interpolation_error : corners vs their scan vertices
+    """
+
+    surface: SplineSurface
+    domain: CoarseDomain
+    vertices: np.ndarray
+    deviation: Deviation
+    rejected: np.ndarray
+    stats: dict
+    energies: dict
+    iterations: int
+    converged: bool
+    history: list
+    timings: dict
+    parameterization: Any
+    settings: dict
+    uv: np.ndarray
+    faces: np.ndarray
+    ctrl: np.ndarray
+    c1_residual: float
+    max_interpolation_error: float
+    weights: FitWeights = field(default=APPROX_WEIGHTS)
+
+
+@dataclass(frozen=True)
+class _Options:
+    """Validated options of one approximation."""
+
+    tolerance: float | None
+    budget: int
+    refine: bool
+    corners: str
+    loss: str
+    weights: FitWeights
+
+
+def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corners, loss, weights) -> _Options:
+    """Check every option (clear messages naming the bad value) and derive the budget."""
+    if tolerance is not None and tolerance_rel is not None:
+        raise InputError("give tolerance (model units) or tolerance_rel (of the diagonal), not both")
+    for name, v in (("tolerance", tolerance), ("tolerance_rel", tolerance_rel)):
+        if v is not None and not (np.isfinite(v) and v > 0):
+            raise InputError(f"{name} must be finite and > 0, got {v}")
+    tol = tolerance if tolerance_rel is None else tolerance_rel * diagonal
+    if n_vertices is not None and not (int(n_vertices) == n_vertices and 3 <= n_vertices):
+        raise InputError(f"n_vertices must be an integer >= 3, got {n_vertices}")
+    if corners not in CORNER_MODES:
+        raise InputError(f"corners must be one of {', '.join(CORNER_MODES)}, got {corners!r}")
+    if loss not in LOSS_NAMES:
+        raise InputError(f"loss must be one of {', '.join(LOSS_NAMES)}, got {loss!r}")
+    if not isinstance(weights, FitWeights):
+        raise InputError(f"weights must be a FitWeights, got {type(weights).__name__}")
+    if n_vertices is not None:
+        budget = int(n_vertices)
+    else:
+        budget = max(16, int(round((DEFAULT_FRACTION if tol is None else DEFAULT_BUDGET_FRACTION) * n)))
+    return _Options(tolerance=tol, budget=min(budget, n), refine=tol is not None, corners=corners, loss=loss,
+                    weights=weights)
+
+
+def _smoothed(V: np.ndarray, F: np.ndarray, steps: int = PARAM_SMOOTHING) -> np.ndarray:
+    """The scan ``V (n, 3)`` as the parameterization sees it: boundary spikes (farther than
+    :data:`BOUNDARY_SPIKE` median edge lengths from their two boundary neighbours' midpoint) moved
+    there, then ``steps`` uniform-Laplacian steps of the interior vertices (boundary fixed)."""
+    n = V.shape[0]
+    key = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    edge, count = np.unique(key[:, 0] * n + key[:, 1], return_counts=True)
+    a, b = edge // n, edge % n
+    on = count == 1  # boundary edges belong to one face
+    bnd = np.zeros(n, bool)
+    bnd[np.r_[a[on], b[on]]] = True
+    adjacency = lambda sel: sp.csr_matrix((np.ones(2 * int(sel.sum())), (np.r_[a[sel], b[sel]], np.r_[b[sel], a[sel]])),
+                                          shape=(n, n))  # noqa: E731
+    X = V.copy()
+    mid = (adjacency(on) @ X) / 2.0
+    h = float(np.median(np.linalg.norm(V[a] - V[b], axis=1)))
+    spike = bnd & (np.linalg.norm(X - mid, axis=1) > BOUNDARY_SPIKE * h)
+    X[spike] = mid[spike]
+    A = adjacency(np.ones(edge.size, bool))
+    deg = np.maximum(np.asarray(A.sum(1)).ravel(), 1.0)[:, None]
+    for _ in range(steps):
+        X = np.where(bnd[:, None], X, (A @ X) / deg)
+    return X
+
+
+def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray, np.ndarray, Any]:
+    """``(uv (n, 2), faces (m, 3) counter-clockwise, parameterization or None)``.
+
+    A folded LSCM map is not repaired (on a large noisy scan the repair can take minutes):
+    the harmonic map of the same smoothed scan replaces it (its repair, when needed, is the
+    fast Tutte embedding).
+    """
+    from trispline.param import MeshError, parameterize, validate_mesh
+
+    if uv is not None:
+        uv = as_array(uv, "uv", (V.shape[0], 2), finite=True)
+        validate_mesh(V, F)
+        faces = F[:, [0, 2, 1]] if (signed_areas(uv, F) < 0).all() else F
+        return uv, faces, None
+    if param == "uv":
+        p = parameterize(V, F, method="uv")
+        return p.uv, p.faces, p
+    X = _smoothed(V, F)
+    try:
+        p = parameterize(X, F, method=param, repair=param != "lscm")
+    except MeshError as exc:
+        if "folded" not in getattr(exc, "kinds", ()):
+            raise
+        p = parameterize(X, F, method="harmonic")
+        p.messages.append(f"the lscm map folded; the harmonic map is used instead ({str(exc).splitlines()[0]})")
+    return p.uv, p.faces, p
+
+
+def _first_domain(V: np.ndarray, F: np.ndarray, uv: np.ndarray, opt: _Options) -> CoarseDomain:
+    """The starting coarse domain: the budget, or with a tolerance a coarser start (more if the outline needs it)."""
+    if not opt.refine:
+        return coarse_domain(V, F, uv, n_vertices=opt.budget)
+    k = min(opt.budget, max(INITIAL_MIN, int(round(INITIAL_FRACTION * V.shape[0]))))
+    while k < opt.budget:
+        try:
+            return coarse_domain(V, F, uv, n_vertices=k)
+        except InputError:
+            k = min(opt.budget, 2 * k)
+    return coarse_domain(V, F, uv, n_vertices=opt.budget)  # raises when the budget is below the outline's need
+
+
+def approximate_surface(
+    V: np.ndarray,
+    F: np.ndarray,
+    *,
+    tolerance: float | None = None,
+    tolerance_rel: float | None = None,
+    n_vertices: int | None = None,
+    corners: str = "data",
+    loss: str = "huber",
+    weights: FitWeights = APPROX_WEIGHTS,
+    uv: np.ndarray | None = None,
+    param: str = DEFAULT_METHOD,
+    progress: Callable[[str, dict], None] | None = None,
+    max_rounds: int = MAX_ROUNDS,
+) -> ApproxResult:
+    """Fit a coarse C1 spline to every vertex of the scan, refined until within the tolerance.
+
+    Parameters
+    ----------
+    V : (n, 3) float, F : (m, 3) int
+        An open scan (disk, or disk with holes).
+    tolerance : largest deviation of an inlier (model units); tolerance_rel : the same as a
+        fraction of the bounding-box diagonal. Without either the fit uses ``n_vertices`` as is.
+    n_vertices : vertex budget (default :data:`~.domain.DEFAULT_FRACTION` of the scan without a
+        tolerance, :data:`DEFAULT_BUDGET_FRACTION` with one)
+    corners : ``"data"`` (each corner point interpolates its scan vertex) or ``"fit"`` (fitted
+        like every other free point: better on noisy scans, see docs/approximate.md)
+    loss : ``"huber"``, ``"cauchy"`` (robust, scaled by the noise estimate) or ``"l2"``
+    weights : FitWeights; ``bend`` and ``data`` are used (the data weight sets the smoothing
+        length, about the coarse spacing over ``data ** 0.25``)
+    uv : (n, 2), optional: the scan's domain (else ``param`` parameterizes it)
+    progress : ``progress(stage, info)`` after each stage of :data:`APPROX_STAGES`; ``info`` has
+        ``seconds`` and, after a round's deviation, that round's record
+    max_rounds : refinement rounds at most
+
+    Returns
+    -------
+    ApproxResult; ``stats["met"]`` says whether the tolerance was met (never raises for that).
+    """
+    require_x64()
+    V = as_array(V, "V", (None, 3), finite=True, min_rows=3)
+    F_in = np.asarray(F)
+    if F_in.size and not np.issubdtype(F_in.dtype, np.integer):
+        raise InputError(f"F must be integers, got dtype {F_in.dtype}")
+    F = as_array(F_in, "F", (None, 3), integer=True, min_rows=1)
+    diagonal = float(np.linalg.norm(V.max(0) - V.min(0)))
+    opt = _options(V.shape[0], diagonal, tolerance, tolerance_rel, n_vertices, corners, loss, weights)
+    clock = StageTimer(None)
+    report = progress or (lambda stage, info: None)
+
+    def stage(name: str, **info) -> None:
+        report(name, dict(info, seconds=clock(name)))
+
+    uv, faces, parameterization = _domain_uv(V, F, uv, param)
+    stage("parameterize")
+    dom = _first_domain(V, faces, uv, opt)
+    stage("domain")
+    scale = None if opt.loss == "l2" else loss_scale(dom, opt.loss, diagonal)
+    best, history, stop = _refine(V, dom, opt, scale, max_rounds, stage)
+    final = _final(V, best, opt, scale, stage)
+    return _result(V, final, opt, scale, history, stop, clock.timings, parameterization)
+
+
+def loss_scale(dom: CoarseDomain, loss: str, diagonal: float) -> np.ndarray:
+    """``(n,)`` the robust loss's scale at each scan vertex (model units).
+
+    ``TUNING[loss] * noise`` (the scan's noise estimate, at least :data:`MIN_SCALE` of the
+    diagonal), widened by ``SPIKE_LEVELS / roughness`` where the scan analysis finds a vertex
+    consistent with its neighbours' robust quadric (roughness below :data:`~.analysis.SPIKE_LEVELS`).
+    An M-estimate alone cannot tell a spike from a region the coarse surface does not follow yet
+    (both are far from the fit) and would push such a region farther off; the scan's own local
+    fits can: a spike keeps the nominal scale, coherent data get plain least squares.
+    """
+    base = TUNING[loss] * max(dom.stats.noise, MIN_SCALE * diagonal)
+    return base * np.maximum(1.0, SPIKE_LEVELS / np.maximum(dom.analysis.roughness, 1e-12))
+
+
+def _irls_weights(fit, located: tuple[np.ndarray, np.ndarray], V: np.ndarray, scale: np.ndarray, loss: str
+                  ) -> np.ndarray:
+    """``(n,)`` the robust loss's weights at the residuals of ``fit`` (the next reweighted step's)."""
+    r = np.linalg.norm(fit.surface.evaluate(*located) - V, axis=1)
+    return inlier_weight(r, scale, loss)
+
+
+def _round_fit(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: np.ndarray | None) -> tuple[Any, tuple]:
+    """``(fit, located)``: the plain fit over ``dom``, then (a robust loss) :data:`IRLS_STEPS` reweighted ones.
+
+    The weights start afresh each round: a region the last domain could not follow is not
+    kept down-weighted once refinement has given it the vertices to follow it.
+    """
+    located = scan_parameters(dom)
+    pw = None
+    for _ in range(1 + (IRLS_STEPS if scale is not None else 0)):
+        fit = fit_domain(dom, V, weights=opt.weights, loss=opt.loss, scale=scale, corners=opt.corners,
+                         located=located, point_weight=pw, gauss_newton=False)
+        if scale is not None:
+            pw = _irls_weights(fit, located, V, scale, opt.loss)
+    return fit, located
+
+
+def _insert(dom: CoarseDomain, ids: np.ndarray) -> CoarseDomain:
+    """:func:`~.domain.insert`, or with only the interior ids when the new chords would cross (else ``dom``)."""
+    try:
+        return insert(dom, ids)
+    except InputError:
+        inner = ids[~np.isin(ids, np.concatenate(dom.loops))]
+        try:
+            return insert(dom, inner) if inner.size < ids.size else dom
+        except InputError:
+            return dom
+
+
+def _grow(dom: CoarseDomain, state: Round, opt: _Options) -> CoarseDomain:
+    """``dom`` with the vertices :func:`~.refine.pick_vertices` asks for, within the budget."""
+    ids = pick_vertices(state, opt.tolerance, opt.budget - dom.stats.n_vertices)
+    new = _insert(dom, ids) if ids.size else dom
+    while new.stats.n_vertices > opt.budget and ids.size > 1:  # chord splits can add a few
+        ids = ids[: ids.size // 2]
+        new = _insert(dom, ids)
+    return new if new.stats.n_vertices <= opt.budget else dom
+
+
+def _refine(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None, max_rounds: int,
+            stage: Callable) -> tuple[Round, list[dict], str]:
+    """The refinement rounds: ``(best round, history, why it stopped)``."""
+    best, history, stop = None, [], "rounds"
+    for r in range(max_rounds):
+        t0 = time.perf_counter()
+        fit, located = _round_fit(V, dom, opt, scale)
+        stage("fit")
+        state = measure(dom, V, fit, located, scale is not None, seconds=time.perf_counter() - t0)
+        record = dict(state.record(), round=r + 1, tolerance=opt.tolerance, budget=opt.budget)
+        history.append(record)
+        stage("deviation", record=record)
+        if best is None or state.max_deviation < best.max_deviation:
+            best = state
+        if not opt.refine:
+            stop = "no tolerance"
+            break
+        if state.max_deviation <= opt.tolerance:
+            stop = "tolerance met"
+            break
+        if dom.stats.n_vertices >= opt.budget:
+            stop = "budget"
+            break
+        new = _grow(dom, state, opt)
+        stage("refine")
+        if new.stats.n_vertices == dom.stats.n_vertices:
+            stop = "stalled"  # nothing could be inserted (every candidate too close to a vertex, or budget)
+            break
+        dom = new
+    return best, history, stop
+
+
+def _final(V: np.ndarray, best: Round, opt: _Options, scale: float | None, stage: Callable) -> Round:
+    """With a robust loss, its minimum by Gauss--Newton on the best round's domain (kept unless worse)."""
+    if scale is None:
+        stage("final")
+        return best
+    t0 = time.perf_counter()
+    located = best.located
+    pw = _irls_weights(best.fit, located, V, scale, opt.loss)
+    fit = fit_domain(best.dom, V, weights=opt.weights, loss=opt.loss, scale=scale, corners=opt.corners,
+                     located=located, point_weight=pw, gauss_newton=True)
+    state = measure(best.dom, V, fit, located, True, seconds=time.perf_counter() - t0)
+    stage("final")
+    within = opt.tolerance is not None and state.max_deviation <= opt.tolerance
+    return state if (state.max_deviation <= best.max_deviation or within) else best
+
+
+def _result(V: np.ndarray, state: Round, opt: _Options, scale: float | None, history: list[dict], stop: str,
+            timings: dict, parameterization) -> ApproxResult:
+    """Assemble the result: statistics, checks and the surface with its file extras."""
+    dom, fit = state.dom, state.fit
+    ctrl = np.asarray(fit.surface.ctrl)
+    tri = dom.triangulation
+    corners = ctrl[np.arange(tri.n_faces)[:, None], CORNER[None, :]]
+    met = opt.tolerance is not None and state.max_deviation <= opt.tolerance
+    nominal = None if scale is None else float(np.min(scale))  # the spikes' scale
+    stats = dict(deviation=state.inliers, deviation_all=summary(state.deviation.distance),
+                 rejected=int(state.rejected.sum()), vertices=int(dom.stats.n_vertices), patches=int(tri.n_faces),
+                 tolerance=opt.tolerance, budget=opt.budget, met=bool(met), stop=stop, rounds=len(history),
+                 noise=float(dom.stats.noise), scale=nominal, scan_vertices=int(V.shape[0]))
+    settings = dict(loss=opt.loss, corners=opt.corners, tolerance=opt.tolerance, budget=opt.budget, scale=nominal)
+    extras = surface_extras(dom, fit, V, stats, settings, opt.weights)
+    surface = SplineSurface(dom.uv, dom.faces, ctrl, extras=extras)
+    return ApproxResult(
+        surface=surface, domain=dom, vertices=dom.vertices, deviation=state.deviation, rejected=state.rejected,
+        stats=stats, energies=fit.energies, iterations=fit.iterations, converged=fit.converged, history=history,
+        timings=dict(timings), parameterization=parameterization, settings=settings, uv=dom.uv, faces=dom.faces,
+        ctrl=ctrl, c1_residual=float(continuity_report(tri, ctrl)["c1_relative"]),
+        max_interpolation_error=float(np.abs(corners - V[dom.vertices][tri.faces]).max()), weights=opt.weights)
+
+
+#: The deviation statistics stored in the surface file, in order (``approx_deviation``).
+DEVIATION_KEYS = ("count", "rms", "mean", "max", "p50", "p95", "p99")
+
+
+def surface_extras(dom: CoarseDomain, fit, V: np.ndarray, stats: dict, settings: dict,
+                   weights: FitWeights) -> dict[str, np.ndarray]:
+    """The surface file's optional keys of an approximation (readers ignore keys they do not know).
+
+    ``approx_scan_vertices (k,)``: the scan vertex of each coarse vertex; ``approx_deviation``
+    (names in ``approx_deviation_names``): the inliers' deviation statistics, then ``rejected``,
+    ``all_rms``, ``all_max``; ``approx_loss``, ``approx_corners``, ``approx_tolerance`` (NaN:
+    none), ``approx_budget``, ``approx_scale`` (NaN: plain loss), ``approx_noise``, ``approx_met``,
+    ``approx_stop``; ``free``, ``fit_weights`` as for an interpolating fit, and ``data_vertices``
+    (the corners' scan vertices) when the corners interpolate them.
+    """
+    from dataclasses import asdict
+
+    dev = stats["deviation"]
+    names = list(DEVIATION_KEYS) + ["rejected", "all_rms", "all_max"]
+    values = [float(dev[k]) for k in DEVIATION_KEYS] + [float(stats["rejected"]), stats["deviation_all"]["rms"],
+                                                       stats["deviation_all"]["max"]]
+    nan = lambda v: float("nan") if v is None else float(v)  # noqa: E731
+    extras = dict(
+        approx_scan_vertices=np.asarray(dom.vertices, np.int64), approx_deviation_names=np.array(names, dtype=str),
+        approx_deviation=np.array(values), approx_loss=np.array(settings["loss"]),
+        approx_corners=np.array(settings["corners"]), approx_tolerance=np.array(nan(settings["tolerance"])),
+        approx_budget=np.array(int(settings["budget"])), approx_scale=np.array(nan(settings["scale"])),
+        approx_noise=np.array(float(stats["noise"])), approx_met=np.array(bool(stats["met"])),
+        approx_stop=np.array(stats["stop"]), free=fit.free,
+        fit_weights=np.array(list(asdict(weights).values()), float))
+    if settings["corners"] == "data":
+        extras["data_vertices"] = V[dom.vertices]
+    return extras

@@ -1,0 +1,197 @@
+"""The approximation's least-squares problem: a coarse C1 spline fitted to every scan point.
+
+The coarse spline space ``P = M @ free`` lives on the coarse domain; its corner points
+either interpolate their scan vertices (``corners="data"``: fixed, ``P = c0 + M_u x``) or
+move like every other free point (``corners="fit"``: ``x`` is every free point). Terms
+(:mod:`trispline.fit.energy`): the fairness terms :data:`FAIRNESS` over the coarse uv
+domain (``bend``, the thin-plate energy, and ``variation``, the curvature variation whose
+null space holds the quadrics) and the data term over all scan points located in the
+coarse domain, with the plain loss or a robust one
+(:data:`~trispline.fit.energy.terms.DATA_LOSSES`).
+
+The data term's per-point weight is ``n_coarse^2 / (A n_scan)`` (``A`` the uv area), so
+its energy density is ``error^2 / h^4`` with ``h^2 = A / n_coarse`` the uv area per coarse
+vertex, whatever the scan's density: against a fairness term (``error^2 / l^4`` for a wiggle
+of length ``l``; the curvature variation is weighted by patch area to match) the ratio of
+the weights sets the smoothing length as a fixed fraction of the coarse spacing.
+
+Shapes are padded to a few sizes (:func:`padded`): the unknowns, the control points and
+the patches, with inert entries (an identity row in ``H``, zero residuals), so a refit
+after refinement usually reuses the compiled Gauss--Newton loop of an earlier round.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import scipy.sparse as sp
+
+from trispline.spline.index import NCTRL
+from trispline.spline.propagation import SplineSpace
+
+from .. import energy as en
+from ..energy import bend, variation
+from ..energy.data import DataPoints
+from ..energy.robust import RobustPoints
+from ..energy.terms import DATA_LOSSES
+from ..weights import FitWeights
+
+__all__ = ["ApproxProblem", "setup_problem", "padded", "CORNER_MODES", "PAD_GROWTH"]
+
+#: The fairness terms of the approximation (their weights: ``bend``, ``variation``).
+FAIRNESS = (bend, variation)
+#: ``corners="data"``: corner points interpolate their scan vertices; ``"fit"``: they are fitted too.
+CORNER_MODES = ("data", "fit")
+#: Padded sizes grow by this factor (fewer compiles, at most this much more work).
+PAD_GROWTH = 1.25
+#: Smallest padded size.
+PAD_MIN = 64
+
+
+def padded(n: int) -> int:
+    """The padded size ``>= n``: ``PAD_MIN * PAD_GROWTH^j`` rounded up, for the smallest such ``j``."""
+    size = float(PAD_MIN)
+    while size < n:
+        size *= PAD_GROWTH
+    return int(np.ceil(size))
+
+
+@dataclass
+class ApproxProblem:
+    """Residual arrays and the plain (linearised) normal equations of one coarse fit.
+
+    Attributes
+    ----------
+    args : pytree of JAX arrays for :func:`residuals` (padded shapes)
+    H : (kp, kp) sparse SPD normal matrix of the plain terms (one per coordinate; padding: identity)
+    rhs : (kp, 3) its right-hand side; ``H^{-1} rhs`` is the plain loss's optimum
+    unknowns : (k,) free ids of the unknowns (the first ``k`` of ``kp``)
+    loss : the data loss (``"l2"``, ``"huber"``, ``"cauchy"``)
+    terms : the terms' host arrays, unpadded (``{"bend": ..., "data": ...}``), for :func:`energies`
+    """
+
+    args: dict
+    H: sp.csr_array
+    rhs: np.ndarray
+    unknowns: np.ndarray
+    loss: str
+    terms: dict
+
+    def energies(self, ctrl: np.ndarray, size: float = 1.0) -> dict[str, float]:
+        """Energy of each term (data units) for patch control points ``ctrl (f, 21, 3)`` in normalised
+        coordinates (data scaled by ``1 / size``), on the host."""
+        modules = FAIRNESS + (DATA_LOSSES[self.loss],)
+        return {m.NAME: float(np.sum(m.residual(ctrl, None, self.terms[m.NAME]) ** 2)) * size**m.SCALE_EXPONENT
+                if m.NAME in self.terms else 0.0 for m in modules}
+
+    @property
+    def nonlinear(self) -> bool:
+        """A robust loss: Gauss--Newton iterates."""
+        return not DATA_LOSSES[self.loss].LINEAR
+
+
+def _context(space: SplineSpace, weights: FitWeights, points: DataPoints, n_scan: int) -> en.TermContext:
+    """The terms' context: every coarse patch, no frames, no local fits (bend and data need none)."""
+    tri = space.tri
+    area = float(tri.areas.sum())
+    empty = np.zeros(0)
+    return en.TermContext(
+        weights=weights, areas=tri.areas, bary_gradients=tri.bary_gradients, faces=tri.faces, uv=tri.uv,
+        V=np.zeros((tri.n_vertices, 3)), halo_faces=tri.faces, fit=None, frame_vertices=np.zeros(0, np.int64),
+        frame_scale=empty, vertex_area=empty, data_points=points,
+        sample_weight=tri.n_vertices**2 / (area * max(n_scan, 1)))
+
+
+def setup_problem(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray | None, weights: FitWeights,
+                  loss: str, point_weight: np.ndarray | None = None) -> ApproxProblem:
+    """The problem for scan ``points`` located in ``space``'s domain (normalised coordinates).
+
+    Parameters
+    ----------
+    space : SplineSpace of the coarse domain
+    points : DataPoints (``loss="l2"``) or RobustPoints: face (n,), bary (n, 3), xyz (n, 3)
+    corner_xyz : (nv, 3) the corner points' fixed positions (``corners="data"``), or None (``"fit"``)
+    weights : FitWeights (bend and data are used)
+    loss : ``"l2"``, ``"huber"`` or ``"cauchy"`` (``points`` a RobustPoints for the robust ones)
+    point_weight : (n,) weights of the points in ``H`` and ``rhs`` only (iteratively reweighted
+        least squares: the robust loss's weights at an earlier fit); the residuals keep the loss
+    """
+    term = DATA_LOSSES[loss]
+    if corner_xyz is None:
+        unknowns = np.arange(space.n_free)
+    else:
+        fixed = np.zeros(space.n_free, bool)
+        fixed[space.corner_free] = True
+        unknowns = np.flatnonzero(~fixed)
+    M = sp.csc_matrix(space.M)
+    M_u = sp.csr_matrix(M[:, unknowns])
+    c0 = np.zeros((space.n_points, 3)) if corner_xyz is None else np.asarray(M[:, space.corner_free] @ corner_xyz)
+    ctx = _context(space, weights, points, points.face.size)
+    terms = {m.NAME: m.setup(ctx) for m in FAIRNESS if getattr(weights, m.NAME, 0.0) > 0}  # a zero weight: no term
+    terms["data"] = term.setup(ctx)
+    flat = np.asarray(space.point_index).ravel()
+    parts = en.NormalParts.zeros(space.tri.n_faces, 0)
+    for m in FAIRNESS:
+        if m.NAME in terms:
+            m.add_normal(parts, terms[m.NAME])
+    plain = dict(terms["data"])
+    if point_weight is not None:
+        plain["scale"] = plain["scale"] * np.sqrt(point_weight)
+    DATA_LOSSES["l2"].add_normal(parts, plain)  # a robust term's linearisation at zero, reweighted
+    H, rhs = en.normal_equations(M_u[flat], c0[flat], np.zeros(0, np.int64), parts)
+    return _padded_problem(M_u, c0, space.point_index, terms, H, rhs, unknowns, loss)
+
+
+def _padded_problem(M_u: sp.csr_matrix, c0: np.ndarray, point_index: np.ndarray, terms: dict, H: sp.csr_array,
+                    rhs: np.ndarray, unknowns: np.ndarray, loss: str) -> ApproxProblem:
+    """Pad unknowns, points and patches to :func:`padded` sizes with inert entries."""
+    k, n_points, nf = unknowns.size, c0.shape[0], point_index.shape[0]
+    kp, pp, fp = padded(k), padded(n_points), padded(nf)
+    Hp = sp.block_diag([H, sp.identity(kp - k)], format="csr")
+    rhs_p = np.zeros((kp, 3))
+    rhs_p[:k] = rhs
+    c0_p = np.zeros((pp, 3))
+    c0_p[:n_points] = c0
+    pidx = np.zeros((fp, NCTRL), np.int64)
+    pidx[:nf] = point_index
+    Mc = M_u.tocoo()
+    args = dict(M_rows=Mc.row.astype(np.int64), M_cols=Mc.col.astype(np.int64), M_vals=Mc.data, c0=c0_p,
+                point_index=pidx, frame_pos=np.zeros(0, np.int64), data=terms["data"])
+    for m in (m for m in FAIRNESS if m.NAME in terms):
+        a = dict(terms[m.NAME])
+        W = np.zeros((fp,) + a["W"].shape[1:])
+        W[:nf] = a["W"]  # padded patches: zero weight
+        args[m.NAME] = dict(a, W=W)
+    return ApproxProblem(args=jax.tree_util.tree_map(jnp.asarray, args), H=Hp, rhs=rhs_p, unknowns=unknowns,
+                         loss=loss, terms=terms)
+
+
+def _residuals(x: jax.Array, args: dict, term) -> dict[str, jax.Array]:
+    ctrl = en.control_points(x, args)[args["point_index"]]
+    out = {m.NAME: m.residual(ctrl, None, args[m.NAME]) for m in FAIRNESS if m.NAME in args}
+    out["data"] = term.residual(ctrl, None, args["data"])
+    return out
+
+
+def plain_residuals(x: jax.Array, args: dict) -> dict[str, jax.Array]:
+    """The optimistix residual with the plain data loss: ``{"bend": ..., "data": ...}``."""
+    return _residuals(x, args, DATA_LOSSES["l2"])
+
+
+def robust_residuals(x: jax.Array, args: dict) -> dict[str, jax.Array]:
+    """The optimistix residual with a robust data loss (Huber or Cauchy, chosen by ``args``)."""
+    return _residuals(x, args, DATA_LOSSES["huber"])
+
+
+def residual_function(loss: str):
+    """:func:`plain_residuals` or :func:`robust_residuals` (module-level: compiled once per shape)."""
+    return plain_residuals if loss == "l2" else robust_residuals
+
+
+def robust_points(face: np.ndarray, bary: np.ndarray, xyz: np.ndarray, loss: str, scale: float) -> DataPoints:
+    """DataPoints for ``loss="l2"``, else RobustPoints with the loss scale ``scale``."""
+    if loss == "l2":
+        return DataPoints(face, bary, xyz)
+    return RobustPoints(face, bary, xyz, loss=loss, scale=scale)

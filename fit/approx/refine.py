@@ -1,0 +1,116 @@
+"""Tolerance-driven refinement: insert scan vertices where the deviation exceeds the tolerance, refit.
+
+    state = measure(dom, V, fit, scale, loss)            # Round: the fit, its deviation, the rejected points
+    ids = pick_vertices(state, tolerance, room)         # scan vertices to insert (one per face over the tolerance)
+
+Each round fits the spline over the current coarse domain, measures the true 3D deviation
+of every scan vertex (:func:`~.deviation.surface_deviation`) and, while the inliers'
+largest deviation exceeds the tolerance and the budget allows, inserts one scan vertex
+into every coarse face holding an inlier over the tolerance (the worst faces first):
+the one that is far over the tolerance, well inside the face and smooth (low roughness:
+with ``corners="data"`` the surface passes through it). :func:`~.domain.insert`
+re-triangulates (boundary vertices move chords out toward the scan's outline).
+
+With a robust loss a scan vertex is **rejected** (an outlier: the tolerance does not
+apply to it) when the scan analysis marks it a spike (far off the robust quadric of its
+neighbours, :attr:`~.analysis.ScanAnalysis.spike`) and the fit leaves it farther than
+:data:`REJECT_SIGMAS` times the scan's noise away. Both are needed: a coherent region the coarse
+surface cannot follow yet is far from the fit but not a spike, and stays an inlier, so
+refinement fixes it instead of ignoring it. With the plain loss nothing is rejected.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .deviation import Deviation, summary, surface_deviation
+from .domain import CoarseDomain
+from .fit import CoarseFit
+
+__all__ = ["Round", "measure", "pick_vertices", "REJECT_SIGMAS", "GROWTH"]
+
+#: A spike farther than this many noise standard deviations from the fit is rejected (robust losses only).
+REJECT_SIGMAS = 6.0
+#: A round at most multiplies the vertex count by this.
+GROWTH = 2.0
+#: Candidates closer to their face's boundary than this barycentric coordinate are less preferred.
+INTERIOR_BARY = 0.2
+#: Roughness (in local noise levels) that halves a candidate's preference.
+ROUGHNESS_SCALE = 1.5
+
+
+@dataclass(frozen=True)
+class Round:
+    """One refinement round: a coarse domain, the fit over it and its deviation.
+
+    dom : CoarseDomain; fit : CoarseFit; located : ``(face (n,), bary (n, 3))`` of the scan in ``dom``
+    deviation : Deviation of every scan vertex; rejected : (n,) bool
+    inliers : :func:`~.deviation.summary` of the inliers' deviation; seconds : the round's time
+    """
+
+    dom: CoarseDomain
+    fit: CoarseFit
+    located: tuple[np.ndarray, np.ndarray]
+    deviation: Deviation
+    rejected: np.ndarray
+    inliers: dict
+    seconds: float
+
+    @property
+    def max_deviation(self) -> float:
+        """The inliers' largest deviation (model units)."""
+        return self.inliers["max"]
+
+    def record(self) -> dict:
+        """The round in a few numbers (vertices, patches, deviation, rejected, seconds)."""
+        return dict(vertices=int(self.dom.stats.n_vertices), patches=int(self.dom.stats.n_faces),
+                    max=self.inliers["max"], rms=self.inliers["rms"], rejected=int(self.rejected.sum()),
+                    iterations=int(self.fit.iterations), seconds=self.seconds)
+
+
+def measure(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit, located: tuple[np.ndarray, np.ndarray],
+            robust: bool, seconds: float = 0.0) -> Round:
+    """The deviation of every scan vertex ``V (n, 3)`` from ``fit``, and the rejected ones (none unless ``robust``)."""
+    dev = surface_deviation(fit.surface, V)
+    rejected = np.zeros(V.shape[0], bool)
+    if robust:
+        rejected = dom.analysis.spike & (dev.distance > REJECT_SIGMAS * dom.stats.noise)
+    return Round(dom=dom, fit=fit, located=located, deviation=dev, rejected=rejected,
+                 inliers=summary(dev.distance, ~rejected), seconds=seconds)
+
+
+def pick_vertices(state: Round, tolerance: float, room: int) -> np.ndarray:
+    """Scan ids ``(<= room,)`` to insert: per coarse face holding an inlier over ``tolerance``, its best candidate.
+
+    A face counts when any inlier located in it is over the tolerance (a coarse vertex's own
+    point too: with ``corners="fit"`` a corner can miss its vertex). Its candidates are all its
+    scan points but coarse vertices, rejected points and interior spikes (a scan boundary vertex
+    may be one: the leave-one-out residual of the scan analysis is large at a corner of the
+    outline even on exact data), scored ``(d / tolerance) * min(1, b /
+    INTERIOR_BARY + 0.25) / (1 + (roughness / ROUGHNESS_SCALE)^2)`` (``b`` the smallest
+    barycentric coordinate, taken as ``INTERIOR_BARY`` for a scan boundary vertex: it moves the
+    coarse boundary out to the scan's). Faces go in order of their largest deviation, at most
+    ``room`` and at most ``(GROWTH - 1)`` times the vertex count.
+    """
+    dom, d = state.dom, state.deviation.distance
+    face, bary = state.located
+    over = ~state.rejected & (d > tolerance)
+    worst = np.zeros(dom.stats.n_faces)
+    np.maximum.at(worst, face[over], d[over])
+    limit = int(min(room, np.ceil((GROWTH - 1.0) * dom.stats.n_vertices)))
+    on_loop = np.zeros(d.size, bool)
+    on_loop[np.concatenate(dom.loops)] = True
+    cand = (worst[face] > 0) & (~dom.analysis.spike | on_loop) & ~state.rejected
+    cand[dom.vertices] = False
+    ids = np.flatnonzero(cand)
+    if ids.size == 0 or limit <= 0:
+        return np.empty(0, np.int64)
+    inside = np.minimum(1.0, np.clip(bary[ids].min(1), 0.0, None) / INTERIOR_BARY + 0.25)
+    inside[on_loop[ids]] = 1.0  # a scan boundary vertex splits its chord: no sliver
+    score = d[ids] / tolerance * inside / (1.0 + (dom.analysis.roughness[ids] / ROUGHNESS_SCALE) ** 2)
+    f = face[ids]
+    order = np.lexsort((-score, f))  # by face, best first
+    first = order[np.r_[True, f[order][1:] != f[order][:-1]]]  # the best candidate of each face
+    first = first[np.argsort(-worst[f[first]], kind="stable")][:limit]
+    return np.sort(ids[first])

@@ -1,0 +1,183 @@
+"""``trispline fit --tolerance ...``: approximate a dense scan by a coarse spline instead of interpolating it.
+
+    trispline fit SCAN -o SURFACE.npz --tolerance T | --tolerance-rel R | --vertices N
+                  [--corners data|fit] [--loss huber|cauchy|l2] [--strict]
+
+Any of ``--tolerance``, ``--tolerance-rel`` or ``--vertices`` switches ``fit`` from
+interpolation (one patch per scan triangle) to approximation
+(:func:`trispline.fit.approx.approximate_surface`): a coarse spline on a subset of the
+scan's vertices, refined until every inlier is within the tolerance or the vertex budget
+is spent. A tolerance not met is a warning (exit 0), or with ``--strict`` an error
+(exit 3, no file written). ``fit`` registers the options (:func:`add_options`) and hands
+over (:func:`run`) with its own loading and writing steps.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import time
+from typing import Any, Callable
+
+from ..errors import UsageError
+from .common import EXIT_CHECK, EXIT_OK, PROG, UI, fmt, nonneg_float, positive_float, positive_int
+
+__all__ = ["add_options", "requested", "run", "NOISE_SIGMAS"]
+
+#: A tolerance below this many noise standard deviations can only be met by following the noise.
+NOISE_SIGMAS = 4.5
+#: The options that only make sense with an approximation.
+_MODE_OPTIONS = ("corners", "loss", "strict")
+#: ApproxWeights fields the approximation uses.
+_USED_WEIGHTS = ("bend", "variation", "data")
+
+
+def add_options(p: argparse.ArgumentParser) -> None:
+    """The approximation's options on ``fit``'s parser."""
+    g = p.add_argument_group("approximation (a coarse spline within a tolerance instead of interpolation; "
+                             "docs/approximate.md)")
+    g.add_argument("--tolerance", type=positive_float, metavar="T",
+                   help="largest deviation of a scan vertex from the surface, in model units")
+    g.add_argument("--tolerance-rel", type=positive_float, metavar="R",
+                   help="the same as a fraction of the bounding-box diagonal (e.g. 1e-3)")
+    g.add_argument("--vertices", type=positive_int, metavar="N",
+                   help="vertex budget (default 10%% of the scan with a tolerance; alone: fit with N vertices)")
+    g.add_argument("--corners", choices=("data", "fit"), default=None,
+                   help="data (default): corner points interpolate their scan vertices; fit: they move too "
+                        "(better on noisy scans)")
+    g.add_argument("--loss", choices=("huber", "cauchy", "l2"), default=None,
+                   help="data loss: huber (default), cauchy (ignores far outliers) or l2 (plain least squares)")
+    g.add_argument("--strict", action="store_true", default=None,
+                   help="exit 3 (and write nothing) when the tolerance is not met within the budget")
+    g.add_argument("--variation", dest="w_variation", type=nonneg_float, default=None, metavar="W",
+                   help="weight of the curvature variation (ApproxWeights.variation); the approximation also "
+                        "takes --bend and --data")
+
+
+def requested(args: argparse.Namespace) -> bool:
+    """True when ``fit`` should approximate (a tolerance or a vertex budget was given)."""
+    on = any(getattr(args, k, None) is not None for k in ("tolerance", "tolerance_rel", "vertices"))
+    if not on:
+        given = [f"--{k}" for k in _MODE_OPTIONS if getattr(args, k, None) is not None]
+        if given:
+            raise UsageError(f"{', '.join(given)} need --tolerance, --tolerance-rel or --vertices (approximation)")
+    return on
+
+
+def _weights(args: argparse.Namespace, ui: UI, fields: tuple[tuple[str, type], ...]) -> Any:
+    """The approximation's default weights with the given ``--bend`` / ``--variation`` / ``--data`` flags."""
+    from ..approx import APPROX_WEIGHTS
+
+    names = [name for name, _ in fields] + ["variation"]
+    given = {name: getattr(args, f"w_{name}") for name in names if getattr(args, f"w_{name}", None) is not None}
+    ignored = sorted(set(given) - set(_USED_WEIGHTS))
+    if ignored:
+        ui.warn(f"the approximation uses only the bend, variation and data weights; ignored: {', '.join(ignored)}")
+    return dataclasses.replace(APPROX_WEIGHTS, **{k: v for k, v in given.items() if k in _USED_WEIGHTS})
+
+
+class _Bar:
+    """The approximation's progress bar: stage, vertex count, the inliers' deviation against the tolerance."""
+
+    def __init__(self, ui: UI) -> None:
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=None, desc="approximate: start JAX", file=sys.stderr, disable=ui.quiet, delay=1.0,
+                        leave=False, bar_format="{desc} [{elapsed}]")
+
+    def __call__(self, stage: str, info: dict) -> None:
+        rec = info.get("record")
+        if rec is None:
+            self.bar.set_description_str(f"approximate: {stage} done", refresh=False)
+        else:
+            tol = "" if rec["tolerance"] is None else f" (tolerance {rec['tolerance']:.3g})"
+            self.bar.set_description_str(f"approximate: round {rec['round']}, {rec['vertices']} vertices, "
+                                         f"max deviation {rec['max']:.3g}{tol}", refresh=False)
+        self.bar.update(0)  # shown once the work has taken over a second (tqdm's delay)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def _approximate(args: argparse.Namespace, ui: UI, mesh: Any, weights: Any) -> tuple[Any, float]:
+    """``(ApproxResult, seconds)``: JAX in float64, then the approximation with a progress bar."""
+    bar = _Bar(ui)
+    try:
+        import jax
+
+        jax.config.update("jax_enable_x64", True)
+        from ..approx import approximate_surface
+
+        t0 = time.perf_counter()
+        result = approximate_surface(mesh.V, mesh.F, tolerance=args.tolerance, tolerance_rel=args.tolerance_rel,
+                                     n_vertices=args.vertices, corners=args.corners or "data",
+                                     loss=args.loss or "huber", weights=weights, uv=mesh.uv, param=args.param,
+                                     progress=bar)
+        return result, time.perf_counter() - t0
+    finally:
+        bar.close()
+
+
+def _summary(args: argparse.Namespace, result: Any, mesh: Any, weights: Any, seconds: float) -> dict:
+    """The command's result (the JSON object; :func:`_text` prints it)."""
+    st = result.stats
+    return dict(
+        command="fit", mode="approximate", input=mesh.source, outputs=[], scan_vertices=int(mesh.V.shape[0]),
+        scan_faces=int(mesh.F.shape[0]), vertices=st["vertices"], patches=st["patches"], param=args.param,
+        corners=result.settings["corners"], loss=result.settings["loss"], tolerance=st["tolerance"],
+        budget=st["budget"], met=st["met"], stop=st["stop"], deviation=st["deviation"],
+        deviation_all=st["deviation_all"], rejected=st["rejected"], noise=st["noise"], rounds=result.history,
+        weights=dataclasses.asdict(weights), energies=result.energies, iterations=int(result.iterations),
+        converged=bool(result.converged), c1_residual=float(result.c1_residual),
+        max_interpolation_error=float(result.max_interpolation_error), timings=dict(result.timings),
+        seconds=seconds)
+
+
+def _text(d: dict) -> str:
+    dev = d["deviation"]
+    tol = ("no tolerance" if d["tolerance"] is None
+           else f"tolerance {fmt(float(d['tolerance']))}: {'met' if d['met'] else 'NOT met'}")
+    e = ", ".join(f"{k} {fmt(v)}" for k, v in d["energies"].items())
+    return "\n".join([
+        f"approximated {d['input']}: {d['scan_vertices']} scan vertices -> {d['vertices']} spline vertices, "
+        f"{d['patches']} quintic patches (param {d['param']}, corners {d['corners']}, loss {d['loss']})",
+        f"  deviation of the inliers: max {fmt(dev['max'])}, RMS {fmt(dev['rms'])} ({tol}); "
+        f"{d['rejected']} points rejected as outliers; {len(d['rounds'])} rounds ({d['stop']})",
+        f"  energies: {e}",
+        f"  C1 residual {fmt(d['c1_residual'])} (relative), {d['seconds']:.1f} s",
+        *(f"  wrote {p}" for p in d["outputs"]),
+    ])
+
+
+def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, write: Callable, extras: Callable,
+        fields: tuple[tuple[str, type], ...]) -> int:
+    """Body of ``fit`` when approximating: ``load``, ``write`` and ``extras`` are ``fit``'s own steps
+    (load and validate the mesh; write all outputs atomically; the fit's file keys)."""
+    import numpy as np
+
+    mesh = load(args, ui)
+    weights = _weights(args, ui, fields)
+    result, seconds = _approximate(args, ui, mesh, weights)
+    data = _summary(args, result, mesh, weights, seconds)
+    st = result.stats
+    if st["tolerance"] is not None and st["tolerance"] < NOISE_SIGMAS * st["noise"]:
+        ui.warn(f"the tolerance {st['tolerance']:.3g} is below {NOISE_SIGMAS} times the scan's noise estimate "
+                f"{st['noise']:.3g}: it can only be met by following the noise")
+    if st["tolerance"] is not None and not st["met"]:
+        what = (f"the tolerance {st['tolerance']:.3g} was not met within {st['budget']} vertices: the inliers' "
+                f"max deviation is {st['deviation']['max']:.3g} ({st['stop']})")
+        if args.strict:
+            ui.result(data, _text)
+            print(f"{PROG}: error: {what}; nothing written (--strict)", file=sys.stderr)
+            return EXIT_CHECK
+        ui.warn(f"{what}; raise --vertices or the tolerance")
+    surface = extras(result, weights, args.param, mesh.source, None)
+    if mesh.kept is not None:  # coarse vertex -> vertex of the mesh file
+        from trispline.spline.surface import SplineSurface
+
+        ids = np.asarray(mesh.kept, np.int64)[result.vertices]
+        surface = SplineSurface(surface.uv, surface.faces, surface.ctrl,
+                                extras={**surface.extras, "approx_scan_vertices": ids})
+    data["outputs"] = [str(p) for p in write(args, ui, surface, outputs, None, (mesh.V, mesh.F))]
+    ui.result(data, _text)
+    return EXIT_OK

@@ -1,0 +1,115 @@
+"""``trispline fit --tolerance ...``: the approximation on the command line, in process.
+
+A round trip (fit writes a file that check and render accept, with the deviation and the
+settings stored), the warning or the exit 3 (--strict, nothing written) of a tolerance not
+met, and one clear line on stderr with exit 2 and no file for every bad input.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+import trispline.fit.cli as cli
+from trispline.fit.datasets.truth import truth_scan
+from trispline.spline.surface import SplineSurface
+
+
+@pytest.fixture(scope="module")
+def scan(tmp_path_factory) -> Path:
+    """A small noisy synthetic scan with a hole and outliers, as a PLY file."""
+    s = truth_scan("bumps", 2500, sigma=1e-3, outliers=0.005, seed=11)
+    path = tmp_path_factory.mktemp("scan") / "scan.ply"
+    trimesh.Trimesh(s.V, s.F, process=False).export(path)
+    return path
+
+
+def run(capsys, *args) -> tuple[int, str, str]:
+    rc = cli.main([str(a) for a in args])
+    out = capsys.readouterr()
+    return rc, out.out, out.err
+
+
+def test_fit_tolerance_round_trip_check_and_render(scan, tmp_path, capsys):
+    out = tmp_path / "s.npz"
+    rc, stdout, err = run(capsys, "fit", scan, "-o", out, "--tolerance-rel", "8e-3", "--corners", "fit", "--json")
+    assert rc == 0, err
+    d = json.loads(stdout)
+    assert d["mode"] == "approximate" and d["met"] and d["vertices"] < 0.1 * d["scan_vertices"]
+    assert d["deviation"]["max"] <= d["tolerance"] and d["rejected"] > 0 and d["rounds"]
+    s = SplineSurface.load(out)
+    assert s.n_vertices == d["vertices"] and "approx_scan_vertices" in s.extras
+    assert str(s.extras["approx_loss"]) == "huber" and str(s.extras["approx_corners"]) == "fit"
+    rc, stdout, err = run(capsys, "check", out, "--json")
+    assert rc == 0, err
+    rep = json.loads(stdout)
+    assert rep["ok"] and rep["approximation"]["met"] is True
+    assert rep["approximation"]["deviation"]["max"] == pytest.approx(d["deviation"]["max"])
+    rc, stdout, _ = run(capsys, "check", out)
+    assert "stored deviation of the scan (inliers): max" in stdout
+    png = tmp_path / "dev.png"
+    rc, stdout, err = run(capsys, "render", out, "-o", png, "--mode", "deviation", "--mesh", scan,
+                          "--backend", "matplotlib", "--size", "200x150", "--json")
+    assert rc == 0, err and png.is_file()
+    assert json.loads(stdout)["stats"]["data_vertices"] > 2000  # measured against the scan
+    rc, _, err = run(capsys, "render", out, "-o", tmp_path / "x.png", "--mode", "deviation", "--backend",
+                     "matplotlib")
+    assert rc == 2 and "deviation needs a data mesh" in err  # an approximation's data is the scan
+
+
+def test_unmet_tolerance_warns_or_fails_with_strict(scan, tmp_path, capsys):
+    out = tmp_path / "s.npz"
+    args = ("fit", scan, "-o", out, "--tolerance-rel", "1e-5", "--vertices", "40", "--loss", "l2", "--quiet")
+    rc, _, err = run(capsys, *args)
+    assert rc == 0 and out.is_file()
+    assert "warning: the tolerance" in err and "was not met within 40 vertices" in err
+    assert "below 4.5 times the scan's noise estimate" in err
+    out.unlink()
+    rc, _, err = run(capsys, *args, "--strict")
+    assert rc == 3 and not out.exists()
+    assert err.strip().splitlines()[-1].startswith("trispline: error: the tolerance")
+    assert "nothing written (--strict)" in err
+
+
+def test_vertices_alone_fits_that_many_without_refinement(scan, tmp_path, capsys):
+    out = tmp_path / "s.npz"
+    rc, stdout, err = run(capsys, "fit", scan, "-o", out, "--vertices", "50", "--loss", "l2", "--json",
+                          "--tilt", "3")
+    assert rc == 0, err
+    d = json.loads(stdout)
+    assert d["vertices"] <= 50 and len(d["rounds"]) == 1 and d["tolerance"] is None and d["stop"] == "no tolerance"
+    assert "uses only the bend, variation and data weights; ignored: tilt" in err
+
+
+@pytest.mark.parametrize("args,match", [
+    (("--tolerance", "0"), "expected a finite number > 0, got 0"),
+    (("--tolerance=-1e-3",), "expected a finite number > 0"),
+    (("--tolerance", "nan"), "expected a finite number > 0, got nan"),
+    (("--tolerance-rel", "inf"), "expected a finite number > 0, got inf"),
+    (("--tolerance", "1", "--tolerance-rel", "1e-3"), "not both"),
+    (("--vertices", "0"), "expected a positive integer, got 0"),
+    (("--vertices", "2"), "n_vertices must be an integer >= 3, got 2"),
+    (("--vertices", "4"), "a budget of 4 vertices is below what the boundary needs"),
+    (("--corners", "fit"), "--corners need --tolerance, --tolerance-rel or --vertices"),
+    (("--strict",), "--strict need --tolerance"),
+    (("--loss", "tukey", "--vertices", "50"), "invalid choice: 'tukey'"),
+])
+def test_bad_input_is_one_line_exit_2_and_no_file(scan, tmp_path, capsys, args, match):
+    out = tmp_path / "s.npz"
+    rc, stdout, err = run(capsys, "fit", scan, "-o", out, *args)
+    assert rc == 2, (rc, err)
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("trispline: error: ") and match in lines[0], err
+    assert stdout == "" and not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_help_lists_the_approximation_options(capsys):
+    with pytest.raises(SystemExit):
+        cli.build_parser().parse_args(["fit", "--help"])
+    text = capsys.readouterr().out
+    for flag in ("--tolerance", "--tolerance-rel", "--vertices", "--corners", "--loss", "--strict", "--variation"):
+        assert flag in text
+    assert np.isfinite(1.0)

@@ -1,0 +1,206 @@
+"""Approximation of a dense scan (issue 15): exact on polynomials, coarse vertices are scan vertices,
+refinement never makes the maximum deviation worse, outlines and holes kept, a robust loss that
+ignores outliers the plain loss follows, and a clear message for every bad input."""
+from __future__ import annotations
+
+import jax
+import numpy as np
+import pytest
+
+jax.config.update("jax_enable_x64", True)
+
+from trispline.fit.approx import APPROX_WEIGHTS, approximate_surface, coarse_domain, fit_domain, scan_parameters  # noqa: E402,E501
+from trispline.fit.approx.fit import EXTRAPOLATION, ApproxWeights  # noqa: E402
+from trispline.fit.approx.pipeline import loss_scale  # noqa: E402
+from trispline.fit.datasets.truth import grid_with_hole, truth_scan  # noqa: E402
+from trispline.fit.energy import robust  # noqa: E402
+from trispline.fit.energy.data import DataPoints  # noqa: E402
+from trispline.fit.weights import FitWeights  # noqa: E402
+from trispline.spline import Triangulation  # noqa: E402
+from trispline.spline.errors import InputError  # noqa: E402
+
+
+def height_field(f, n: int = 1200, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``V (n, 3)``, ``F``, ``uv``: ``z = f(s, t)`` over the rectangle with a round hole, ``uv = (s, t)``."""
+    st, F = grid_with_hole(n, seed=seed)
+    return np.column_stack([st, f(st[:, 0], st[:, 1])]), F, st
+
+
+PLANE = lambda s, t: 0.3 * s - 0.2 * t + 1.0  # noqa: E731
+QUADRIC = lambda s, t: 0.4 * s * s - 0.3 * s * t + 0.2 * t * t - 0.1 * s  # noqa: E731
+
+
+@pytest.mark.parametrize("f", [PLANE, QUADRIC], ids=["plane", "quadric"])
+@pytest.mark.parametrize("corners,loss,budget", [("data", "l2", 30), ("fit", "l2", 30), ("data", "l2", 120),
+                                                 ("fit", "l2", 120), ("data", "cauchy", 40)])
+def test_polynomials_are_reproduced_exactly_at_any_budget(f, corners, loss, budget):
+    V, F, uv = height_field(f)
+    res = approximate_surface(V, F, uv=uv, n_vertices=budget, corners=corners, loss=loss)
+    diag = float(np.linalg.norm(V.max(0) - V.min(0)))
+    assert res.stats["vertices"] <= budget
+    # data exact: every scan vertex inside the coarse domain lies on the surface, and every one
+    # outside it (between a boundary chord and the scan's outline) on its patch's extension
+    inside = ~res.domain.locate_scan().clamped
+    assert res.deviation.distance[inside].max() <= 1e-9 * diag
+    face, bary = scan_parameters(res.domain)
+    own = res.domain.locator.locator.bary_in(face, uv)
+    near = own.min(1) >= EXTRAPOLATION
+    assert near.mean() > 0.99
+    np.testing.assert_allclose(res.surface.evaluate(face[near], own[near]), V[near], rtol=0, atol=1e-9 * diag)
+    assert res.c1_residual <= 1e-12  # C1 exact
+    assert res.surface.continuity()["c1_relative"] <= 1e-9
+
+
+def test_coarse_vertices_are_scan_vertices_and_corners_interpolate_them():
+    s = truth_scan("bumps", 3000, sigma=1e-3, seed=3)
+    res = approximate_surface(s.V, s.F, uv=s.params, n_vertices=80, loss="l2")
+    k = res.vertices
+    assert np.unique(k).size == k.size and 0 <= k.min() and k.max() < s.V.shape[0]
+    np.testing.assert_array_equal(res.domain.uv, s.params[k])
+    np.testing.assert_array_equal(res.surface.extras["approx_scan_vertices"], k)
+    assert res.max_interpolation_error == 0.0  # corners="data": z_v = V[k_v] exactly
+    np.testing.assert_array_equal(res.surface.extras["data_vertices"], s.V[k])
+
+
+def test_outline_and_holes_survive_with_their_corners():
+    s = truth_scan("saddle", 3000, sigma=0.0, seed=1)
+    res = approximate_surface(s.V, s.F, uv=s.params, n_vertices=60, loss="l2")
+    scan_loops = Triangulation(s.params, s.F).boundary_loops
+    tri = res.domain.triangulation
+    assert len(tri.boundary_loops) == len(scan_loops) == 2  # the outline and the hole
+    assert set(res.domain.corners) <= set(res.vertices)
+    on_boundary = set(res.vertices[np.concatenate(tri.boundary_loops)])
+    assert set(res.domain.corners) <= on_boundary
+    corners = s.params[res.domain.corners]
+    for c in ([-1, -0.7], [1, -0.7], [1, 0.7], [-1, 0.7]):  # the rectangle's four corners are kept
+        assert np.linalg.norm(corners - c, axis=1).min() < 1e-12
+
+
+def test_refinement_never_raises_the_maximum_deviation():
+    s = truth_scan("bumps", 4000, sigma=2e-4, seed=2)
+    res = approximate_surface(s.V, s.F, uv=s.params, tolerance_rel=4e-4, n_vertices=400, loss="l2")
+    maxima = [h["max"] for h in res.history]
+    assert len(maxima) >= 3
+    assert res.stats["deviation"]["max"] == pytest.approx(min(maxima))  # the best state is kept
+    assert res.stats["deviation"]["max"] <= maxima[0]
+    assert res.history[-1]["vertices"] > res.history[0]["vertices"]
+    if res.stats["met"]:
+        assert res.stats["deviation"]["max"] <= res.stats["tolerance"]
+
+
+def test_tolerance_met_reports_what_was_reached():
+    s = truth_scan("cap", 4000, sigma=0.0, seed=0)
+    res = approximate_surface(s.V, s.F, uv=s.params, tolerance_rel=2e-3, loss="l2")
+    assert res.stats["met"] and res.stats["stop"] == "tolerance met"
+    assert res.stats["deviation"]["max"] <= 2e-3 * np.linalg.norm(s.V.max(0) - s.V.min(0))
+    assert res.stats["vertices"] < 0.05 * s.V.shape[0]
+    ex = res.surface.extras
+    names = [str(n) for n in ex["approx_deviation_names"]]
+    assert ex["approx_deviation"][names.index("max")] == pytest.approx(res.stats["deviation"]["max"])
+    assert bool(ex["approx_met"]) and str(ex["approx_loss"]) == "l2"
+
+
+def test_robust_loss_ignores_outliers_the_plain_loss_follows():
+    s = truth_scan("bumps", 4000, sigma=1e-3, outliers=0.01, outlier_sigmas=50.0, seed=4)
+    out = {}
+    for loss in ("l2", "huber", "cauchy"):
+        res = approximate_surface(s.V, s.F, uv=s.params, n_vertices=120, corners="fit", loss=loss)
+        d = s.distance_to_truth(res.deviation.closest[~s.outliers])
+        out[loss] = (float(np.sqrt(np.mean(d * d))) / s.sigma, res)
+    assert out["huber"][0] < 0.5 * out["l2"][0] and out["cauchy"][0] < 0.5 * out["l2"][0]
+    assert out["cauchy"][0] < 0.6  # within about half a noise sigma of the truth
+    for loss in ("huber", "cauchy"):
+        res = out[loss][1]
+        assert res.stats["rejected"] > 0 and not res.rejected[~s.outliers].any()  # only outliers rejected
+        assert res.converged and res.iterations > 0  # optimistix iterated on the robust loss
+    assert out["l2"][1].stats["rejected"] == 0
+
+
+def test_robust_term_is_the_plain_term_for_small_residuals():
+    rng = np.random.default_rng(0)
+    e = rng.normal(size=(50, 3)) * 1e-3
+    q = np.sum(e * e, 1)
+    for c in (0.0, 1.0):
+        g = robust.gain(q, np.asarray(c))
+        np.testing.assert_allclose(g, 1.0, atol=q.max())  # 1 - O(q)
+    # far residuals: |psi|^2 = tau^2 rho(q)
+    q = np.array([4.0, 100.0])
+    np.testing.assert_allclose(q * robust.gain(q, np.asarray(0.0)) ** 2, 2 * np.sqrt(q) - 1)
+    np.testing.assert_allclose(q * robust.gain(q, np.asarray(1.0)) ** 2, np.log1p(q))
+    with pytest.raises(ValueError, match="loss must be one of"):
+        robust.RobustPoints(np.zeros(1, np.int64), np.ones((1, 3)) / 3, np.zeros((1, 3)), loss="tukey")
+    with pytest.raises(ValueError, match="finite and > 0"):
+        robust.RobustPoints(np.zeros(1, np.int64), np.ones((1, 3)) / 3, np.zeros((1, 3)), scale=0.0)
+
+
+def test_loss_scale_widens_away_from_spikes():
+    s = truth_scan("bumps", 3000, sigma=1e-3, outliers=0.01, seed=5)
+    dom = coarse_domain(s.V, s.F, s.params, n_vertices=60)
+    c = loss_scale(dom, "huber", float(np.linalg.norm(s.V.max(0) - s.V.min(0))))
+    spike = dom.analysis.spike
+    assert spike[s.outliers].mean() > 0.9
+    assert np.allclose(c[spike], c.min()) and (c[~spike] >= c.min()).all()
+    assert c.min() == pytest.approx(robust.TUNING["huber"] * dom.stats.noise)
+    assert np.median(c[~s.outliers]) > 3 * c.min()  # coherent data: (nearly) plain least squares
+
+
+def test_fit_domain_plain_and_reweighted():
+    s = truth_scan("bumps", 2000, sigma=1e-3, seed=6)
+    res = approximate_surface(s.V, s.F, uv=s.params, n_vertices=50, loss="l2")
+    fit = fit_domain(res.domain, s.V, loss="l2")
+    np.testing.assert_allclose(fit.surface.ctrl, res.surface.ctrl, rtol=0, atol=1e-12)
+    assert fit.iterations == 0 and set(fit.energies) == {"bend", "variation", "data"}
+    with pytest.raises(ValueError, match="needs its scale"):
+        fit_domain(res.domain, s.V, loss="huber")
+    with pytest.raises(ValueError, match="corners must be"):
+        fit_domain(res.domain, s.V, loss="l2", corners="both")
+    assert isinstance(DataPoints, type)
+
+
+@pytest.mark.parametrize("kwargs,match", [
+    (dict(tolerance=0.0), "tolerance must be finite and > 0, got 0.0"),
+    (dict(tolerance=-1.0), "tolerance must be finite and > 0"),
+    (dict(tolerance=float("nan")), "tolerance must be finite and > 0, got nan"),
+    (dict(tolerance_rel=float("inf")), "tolerance_rel must be finite and > 0, got inf"),
+    (dict(tolerance=1.0, tolerance_rel=1e-3), "not both"),
+    (dict(n_vertices=2), "n_vertices must be an integer >= 3, got 2"),
+    (dict(n_vertices=10.5), "n_vertices must be an integer"),
+    (dict(corners="free"), "corners must be one of data, fit, got 'free'"),
+    (dict(loss="tukey"), "loss must be one of l2, huber, cauchy, got 'tukey'"),
+    (dict(weights=dict(bend=1.0)), "weights must be a FitWeights, got dict"),
+])
+def test_bad_options_are_refused(kwargs, match):
+    V, F, uv = height_field(PLANE, n=300)
+    with pytest.raises(InputError, match=match.replace("(", r"\(")):
+        approximate_surface(V, F, uv=uv, **kwargs)
+
+
+def test_budget_below_what_the_outline_needs_names_both_counts():
+    V, F, uv = height_field(QUADRIC, n=1500)
+    with pytest.raises(InputError, match=r"a budget of 4 vertices is below what the boundary needs: it took \d+"):
+        approximate_surface(V, F, uv=uv, n_vertices=4)
+    with pytest.raises(InputError, match="below what the boundary needs"):
+        approximate_surface(V, F, uv=uv, tolerance=1e-6, n_vertices=4)
+
+
+def test_unreachable_tolerance_finishes_and_reports():
+    s = truth_scan("bumps", 3000, sigma=1e-3, seed=7)
+    res = approximate_surface(s.V, s.F, uv=s.params, tolerance_rel=1e-5, n_vertices=60, loss="l2")
+    assert not res.stats["met"] and res.stats["stop"] in ("budget", "stalled")
+    assert res.stats["vertices"] <= 60 and res.stats["deviation"]["max"] > res.stats["tolerance"]
+    assert not bool(res.surface.extras["approx_met"])
+
+
+def test_weights_are_fit_weights_and_data_weight_smooths():
+    assert isinstance(APPROX_WEIGHTS, FitWeights) and APPROX_WEIGHTS.tilt == 0 and APPROX_WEIGHTS.local == 0
+    s = truth_scan("bumps", 3000, sigma=2e-3, seed=8)
+    soft = approximate_surface(s.V, s.F, uv=s.params, n_vertices=80, loss="l2", weights=ApproxWeights(data=1.0))
+    stiff = approximate_surface(s.V, s.F, uv=s.params, n_vertices=80, loss="l2", weights=ApproxWeights(data=1e4))
+    assert soft.energies["variation"] < stiff.energies["variation"]  # a lower data weight varies less
+    thin = approximate_surface(s.V, s.F, uv=s.params, n_vertices=80, loss="l2",
+                               weights=ApproxWeights(bend=1.0, variation=0.0))  # the thin-plate energy instead
+    assert thin.energies["variation"] == 0.0 and thin.energies["bend"] > 0
+    with pytest.raises(InputError, match="at least one of the bend and variation weights must be positive"):
+        ApproxWeights(bend=0.0, variation=0.0)
+    with pytest.raises(InputError, match="weight variation must be finite and >= 0, got -1"):
+        ApproxWeights(variation=-1.0)
