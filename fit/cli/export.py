@@ -6,7 +6,7 @@
 A mesh export's size is estimated before anything is written (``--json`` reports
 ``estimated_bytes``); above :data:`~trispline.fit.io.export.LARGE_EXPORT_BYTES` a
 warning says so. The default ``--resolution`` follows the patch count
-(:func:`~trispline.fit.io.export.export_resolution`); one given is honoured.
+(:func:`~trispline.fit.io.sizes.export_resolution`); one given is honoured.
 """
 from __future__ import annotations
 
@@ -22,7 +22,8 @@ __all__ = ["add_parser", "cmd_export"]
 
 def add_parser(sub: Any) -> None:
     """Register ``export`` on an ``add_subparsers()`` action."""
-    from ..io.export import EXPORT_TRIANGLES, LARGE_EXPORT_BYTES, MAX_EXPORT_RESOLUTION
+    from ..io.export import LARGE_EXPORT_BYTES
+    from ..io.sizes import EXPORT_TRIANGLES, MAX_EXPORT_RESOLUTION
 
     p = sub.add_parser("export",
                        help="write a surface file as exact CAD (STEP/IGES/3dm), a mesh, a picture or JSON/NPZ",
@@ -94,7 +95,8 @@ def _mesh_size(surface: Any, out_path: Path | None, resolution: int | None) -> d
     triangle counts and its estimated size in bytes; nothing for other outputs."""
     from trispline.spline.tessellate import tessellation_counts
 
-    from ..io.export import MESH_FORMATS, estimate_export_bytes, export_resolution
+    from ..io.formats import MESH_FORMATS
+    from ..io.sizes import estimate_export_bytes, export_resolution
 
     if out_path is None or out_path.suffix.lower() not in MESH_FORMATS:
         return {}

@@ -4,9 +4,10 @@
 
 :mod:`.mesh` reads meshes, :mod:`.export` writes surfaces, meshes, control nets and
 pictures, :mod:`.cad` the exact STEP, IGES and 3dm files, :mod:`.formats` names the output
-formats. The modules load on first use (trimesh and libigl only when a mesh is read or
-written, Open CASCADE only for CAD), so that
-:mod:`trispline.fit.render` can check its PNG names through :mod:`.formats` cheaply.
+formats, :mod:`.sizes` says how big a mesh export will be before it is written. The
+modules load on first use (trimesh and libigl only when a mesh is read or written, Open
+CASCADE only for CAD), so that :mod:`trispline.fit.render` can check its PNG names
+through :mod:`.formats` and size its pictures through :mod:`.sizes` cheaply.
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ _EXPORTS = {
     "SURFACE_FORMATS": "formats", "CAD_FORMATS": "formats", "check_export_path": "formats",
     "ExportFormatError": "formats", "export_cad": "cad",
     "export_control_net": "export", "export_mesh": "export", "export_surface": "export",
+    "export_resolution": "sizes", "estimate_export_bytes": "sizes",
 }
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

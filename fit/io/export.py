@@ -6,8 +6,6 @@
     export_control_net(surface, "net.obj")              # control net as a triangle mesh
     export_control_net(surface, "net.obj", lines=True)  # ... or as line segments (OBJ 'l')
     export_surface(surface, "scan.png", size=(800, 600))  # a shaded picture (trispline.fit.render)
-    export_resolution(surface.n_faces)                  # the default steps per edge of a mesh export
-    estimate_export_bytes(surface, "scan.obj")          # the file's size, estimated before writing
 
 Meshes are the watertight tessellation of :func:`trispline.spline.tessellate.tessellate`
 (neighbouring patches share their boundary samples, so there are no cracks along
@@ -20,10 +18,9 @@ triangle. Pictures are drawn by :mod:`trispline.fit.render`. Every file is
 written atomically (:mod:`trispline.spline.util.atomic`).
 
 Mesh exports have a sensible size by default: the resolution follows the patch
-count (:func:`export_resolution`, about :data:`EXPORT_TRIANGLES` triangles, 1 to
-:data:`MAX_EXPORT_RESOLUTION` steps per edge), and a file estimated
-(:func:`estimate_export_bytes`) above :data:`LARGE_EXPORT_BYTES` is announced with
-a :class:`LargeExportWarning` before it is written.
+count (:func:`.sizes.export_resolution`), and a file estimated
+(:func:`.sizes.estimate_export_bytes`) above :data:`LARGE_EXPORT_BYTES` is announced
+with a :class:`LargeExportWarning` before it is written.
 """
 from __future__ import annotations
 
@@ -40,6 +37,7 @@ from trispline.spline.util.atomic import AtomicOutputs, write_with
 
 from ..errors import ExportFormatError
 from .formats import CAD_FORMATS, EXPORT_FORMATS, IMAGE_FORMATS, MESH_FORMATS, SURFACE_FORMATS, check_export_path
+from .sizes import estimate_export_bytes, export_resolution
 
 if TYPE_CHECKING:  # pragma: no cover
     import trimesh
@@ -47,10 +45,9 @@ if TYPE_CHECKING:  # pragma: no cover
     from trispline.spline.surface import SplineSurface
 
 __all__ = [
-    "MESH_FORMATS", "SURFACE_FORMATS", "IMAGE_FORMATS", "EXPORT_FORMATS", "EXPORT_TRIANGLES",
-    "MAX_EXPORT_RESOLUTION", "LARGE_EXPORT_BYTES", "MESH_BYTES", "ExportFormatError", "LargeExportWarning",
-    "check_export_path", "resolution_for", "export_resolution", "estimate_export_bytes", "surface_mesh",
-    "control_net", "control_net_mesh", "export_mesh", "export_surface", "export_control_net",
+    "MESH_FORMATS", "SURFACE_FORMATS", "IMAGE_FORMATS", "EXPORT_FORMATS", "LARGE_EXPORT_BYTES",
+    "ExportFormatError", "LargeExportWarning", "check_export_path", "surface_mesh", "control_net",
+    "control_net_mesh", "export_mesh", "export_surface", "export_control_net",
 ]
 
 
@@ -58,69 +55,8 @@ class LargeExportWarning(UserWarning):
     """A mesh export is estimated (before it is written) above :data:`LARGE_EXPORT_BYTES`."""
 
 
-#: A mesh export's default resolution aims at about this many triangles ...
-EXPORT_TRIANGLES = 1_500_000
-#: ... with at most this many steps per patch edge (the old fixed default).
-MAX_EXPORT_RESOLUTION = 8
 #: Exports estimated above this many bytes are announced with a LargeExportWarning.
 LARGE_EXPORT_BYTES = 200_000_000
-#: Bytes per vertex, per triangle and once per file of the binary mesh formats as trispline
-#: writes them (vertex normals included): PLY in float64, GLB in float32 with uint32 indices,
-#: STL 50 bytes per triangle. OBJ is text: see :func:`_obj_bytes`.
-MESH_BYTES = {".ply": (48, 13, 300), ".glb": (24, 12, 1100), ".stl": (0, 50, 84)}
-
-
-# ------------------------------------------------------------------------ sizes
-def resolution_for(n_faces: int, triangles: int, most: int = MAX_EXPORT_RESOLUTION) -> int:
-    """Steps per patch edge (1..``most``) that give about ``triangles`` triangles over ``n_faces`` patches
-    (``r^2`` triangles per patch)."""
-    return int(np.clip(np.floor(np.sqrt(triangles / max(int(n_faces), 1))), 1, most))
-
-
-def export_resolution(n_faces: int) -> int:
-    """The default steps per patch edge of a mesh export: about :data:`EXPORT_TRIANGLES` triangles.
-
-    8 (every patch finely) up to about 23k patches, 4 at 63k, 1 from 1.5M patches.
-    """
-    return resolution_for(n_faces, EXPORT_TRIANGLES)
-
-
-def _digits(n: int) -> float:
-    """Mean number of decimal digits of the integers 1..n."""
-    total, k = 0, 1
-    while 10 ** (k - 1) <= n:
-        total += k * (min(n, 10**k - 1) - 10 ** (k - 1) + 1)
-        k += 1
-    return total / max(n, 1)
-
-
-def _obj_bytes(n_vertices: int, n_triangles: int, size: float) -> float:
-    """OBJ text as written here: ``v`` and ``vn`` lines of three numbers with 15 decimals
-    (``size``: the largest absolute coordinate) and ``f a//a b//b c//c`` lines."""
-    number = 17.5 + max(0.0, np.floor(np.log10(max(size, 1.0))))  # sign half the time, digits, point, 15 decimals
-    vertex = (2 + 3 * number + 1) + (3 + 3 * 17.5 + 1)
-    triangle = 2 + 3 * (2 * _digits(n_vertices) + 3)
-    return n_vertices * vertex + n_triangles * triangle + 40
-
-
-def estimate_export_bytes(surface: "SplineSurface", path: str | os.PathLike, resolution: int | None = None
-                          ) -> int | None:
-    """The size in bytes of the mesh file ``path`` (its suffix: OBJ, PLY, STL, GLB) at ``resolution``
-    (None: :func:`export_resolution`), from the tessellation's counts, before anything is drawn;
-    within about 5% of the file written. None for the other formats."""
-    from trispline.spline.tessellate import tessellation_counts
-
-    suffix = check_export_path(path)
-    if suffix not in MESH_FORMATS:
-        return None
-    tri = surface.triangulation
-    r = export_resolution(tri.n_faces) if resolution is None else int(resolution)
-    nv, nt = tessellation_counts(tri.n_vertices, tri.n_edges, tri.n_faces, r)
-    if suffix == ".obj":
-        size = float(np.abs(np.asarray(surface.ctrl)).max()) if tri.n_faces else 1.0
-        return int(_obj_bytes(nv, nt, size))
-    per_vertex, per_triangle, header = MESH_BYTES[suffix]
-    return int(nv * per_vertex + nt * per_triangle + header)
 
 
 # ------------------------------------------------------------------------- meshes
@@ -253,7 +189,7 @@ def export_surface(
     """Write ``surface`` to ``path``; the format follows the suffix.
 
     ``.obj .ply .stl .glb``: the tessellated mesh (``resolution`` steps per patch
-    edge; None: :func:`export_resolution` of the patch count) with analytic
+    edge; None: :func:`.sizes.export_resolution` of the patch count) with analytic
     normals, announced with a :class:`LargeExportWarning` when estimated above
     :data:`LARGE_EXPORT_BYTES`; ``.npz .json``: the surface file; ``.png``: a
     picture drawn by :func:`trispline.fit.render.draw` (``resolution`` samples per

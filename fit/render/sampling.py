@@ -136,7 +136,7 @@ def reference_sample(surface: "SplineSurface", *, curvature: bool = True) -> Sur
 
 def auto_resolution(n_faces: int, backend: str) -> int:
     """Samples per patch edge that give about :data:`TARGET_TRIANGLES` triangles (1..8)."""
-    from ..io.export import resolution_for
+    from ..io.sizes import resolution_for
 
     return resolution_for(n_faces, TARGET_TRIANGLES.get(backend, TARGET_TRIANGLES["pyvista"]), MAX_AUTO_RESOLUTION)
 

@@ -21,6 +21,7 @@ from trispline.fit.cli import render as render_cli
 from trispline.fit.cli.common import Parser, run_cli
 from trispline.fit.datasets import cache
 from trispline.fit.io import export as ex
+from trispline.fit.io import sizes
 from trispline.fit.io.export import LargeExportWarning
 from trispline.fit.render.backends import pyvista_unusable
 from trispline.spline.polynomial import polynomial_control_net
@@ -281,12 +282,12 @@ def test_render_and_export_help_say_every_default():
 
 # ============================================================================ export size
 def test_export_resolution_follows_the_patch_count():
-    assert ex.export_resolution(100) == 8 and ex.export_resolution(23_000) == 8
-    assert ex.export_resolution(63_000) == 4  # 1M triangles, not 437 MB of OBJ
-    assert ex.export_resolution(2_000_000) == 1
+    assert sizes.export_resolution(100) == 8 and sizes.export_resolution(23_000) == 8
+    assert sizes.export_resolution(63_000) == 4  # 1M triangles, not 437 MB of OBJ
+    assert sizes.export_resolution(2_000_000) == 1
     for n in (10, 1000, 50_000, 400_000):
-        r = ex.export_resolution(n)
-        assert r == 8 or n * r * r <= ex.EXPORT_TRIANGLES < n * (r + 1) ** 2
+        r = sizes.export_resolution(n)
+        assert r == 8 or n * r * r <= sizes.EXPORT_TRIANGLES < n * (r + 1) ** 2
 
 
 @pytest.mark.parametrize("suffix", [".obj", ".ply", ".stl", ".glb"])
@@ -294,11 +295,11 @@ def test_estimated_export_size_is_within_five_percent(tmp_path, suffix):
     s = random_c1_surface(300, seed=3)
     for r in (1, 4):
         out = ex.export_surface(s, tmp_path / f"s{suffix}", resolution=r)
-        est = ex.estimate_export_bytes(s, out, r)
+        est = sizes.estimate_export_bytes(s, out, r)
         assert abs(est / out.stat().st_size - 1) < 0.05, (r, est, out.stat().st_size)
-    assert ex.estimate_export_bytes(s, tmp_path / "s.npz") is None
-    assert ex.estimate_export_bytes(s, tmp_path / "s.ply") == ex.estimate_export_bytes(
-        s, tmp_path / "s.ply", ex.export_resolution(s.n_faces))
+    assert sizes.estimate_export_bytes(s, tmp_path / "s.npz") is None
+    assert sizes.estimate_export_bytes(s, tmp_path / "s.ply") == sizes.estimate_export_bytes(
+        s, tmp_path / "s.ply", sizes.export_resolution(s.n_faces))
 
 
 def test_large_export_warns_before_writing(tmp_path, monkeypatch):
@@ -328,8 +329,8 @@ def test_cli_export_reports_size_and_warns(tmp_path, capsys, monkeypatch):
 
     assert cli() == 0
     data = json.loads(capsys.readouterr().out)
-    assert data["resolution"] == ex.export_resolution(s.n_faces) and data["resolution_auto"]
-    assert data["estimated_bytes"] == ex.estimate_export_bytes(s, out) and data["warnings"] == []
+    assert data["resolution"] == sizes.export_resolution(s.n_faces) and data["resolution_auto"]
+    assert data["estimated_bytes"] == sizes.estimate_export_bytes(s, out) and data["warnings"] == []
     assert abs(data["estimated_bytes"] / out.stat().st_size - 1) < 0.05
     assert cli("--resolution", "2") == 0  # an explicit resolution is honoured
     data = json.loads(capsys.readouterr().out)

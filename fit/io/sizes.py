@@ -1,0 +1,87 @@
+"""How big an output will be, known before it is written: steps per patch edge for a triangle
+budget, and the bytes of each mesh format.
+
+    resolution_for(63_000, 1_500_000)               # 4: steps per patch edge for about 1.5M triangles
+    export_resolution(surface.n_faces)              # the default steps per edge of a mesh export
+    estimate_export_bytes(surface, "scan.obj", 5)   # the file's size in bytes (None for non-meshes)
+
+The counts come from :func:`trispline.spline.tessellate.tessellation_counts`
+(``V + (r-1) E + (r-1)(r-2)/2 F`` vertices, ``r^2 F`` triangles); the bytes per vertex
+and triangle were measured on the writers of :mod:`.export`. Pictures
+(:mod:`trispline.fit.render`) use the same budget rule for their automatic resolution.
+"""
+from __future__ import annotations
+
+import os
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .formats import MESH_FORMATS, check_export_path
+
+if TYPE_CHECKING:  # pragma: no cover
+    from trispline.spline.surface import SplineSurface
+
+__all__ = ["EXPORT_TRIANGLES", "MAX_EXPORT_RESOLUTION", "MESH_BYTES", "resolution_for", "export_resolution",
+           "estimate_export_bytes"]
+
+#: A mesh export's default resolution aims at about this many triangles ...
+EXPORT_TRIANGLES = 1_500_000
+#: ... with at most this many steps per patch edge (the old fixed default).
+MAX_EXPORT_RESOLUTION = 8
+#: Bytes per vertex, per triangle and once per file of the binary mesh formats as trispline
+#: writes them (vertex normals included): PLY in float64, GLB in float32 with uint32 indices,
+#: STL 50 bytes per triangle. OBJ is text: see :func:`_obj_bytes`.
+MESH_BYTES = {".ply": (48, 13, 300), ".glb": (24, 12, 1100), ".stl": (0, 50, 84)}
+
+
+def resolution_for(n_faces: int, triangles: int, most: int = MAX_EXPORT_RESOLUTION) -> int:
+    """Steps per patch edge (1..``most``) that give about ``triangles`` triangles over ``n_faces`` patches
+    (``r^2`` triangles per patch)."""
+    return int(np.clip(np.floor(np.sqrt(triangles / max(int(n_faces), 1))), 1, most))
+
+
+def export_resolution(n_faces: int) -> int:
+    """The default steps per patch edge of a mesh export: about :data:`EXPORT_TRIANGLES` triangles.
+
+    8 (every patch finely) up to about 23k patches, 4 at 63k, 1 from 1.5M patches.
+    """
+    return resolution_for(n_faces, EXPORT_TRIANGLES)
+
+
+def _digits(n: int) -> float:
+    """Mean number of decimal digits of the integers 1..n."""
+    total, k = 0, 1
+    while 10 ** (k - 1) <= n:
+        total += k * (min(n, 10**k - 1) - 10 ** (k - 1) + 1)
+        k += 1
+    return total / max(n, 1)
+
+
+def _obj_bytes(n_vertices: int, n_triangles: int, size: float) -> float:
+    """OBJ text as written here: ``v`` and ``vn`` lines of three numbers with 15 decimals
+    (``size``: the largest absolute coordinate) and ``f a//a b//b c//c`` lines."""
+    number = 17.5 + max(0.0, np.floor(np.log10(max(size, 1.0))))  # sign half the time, digits, point, 15 decimals
+    vertex = (2 + 3 * number + 1) + (3 + 3 * 17.5 + 1)
+    triangle = 2 + 3 * (2 * _digits(n_vertices) + 3)
+    return n_vertices * vertex + n_triangles * triangle + 40
+
+
+def estimate_export_bytes(surface: "SplineSurface", path: str | os.PathLike, resolution: int | None = None
+                          ) -> int | None:
+    """The size in bytes of the mesh file ``path`` (its suffix: OBJ, PLY, STL, GLB) at ``resolution``
+    (None: :func:`export_resolution`), from the tessellation's counts, before anything is drawn;
+    within about 5% of the file written. None for the other formats."""
+    from trispline.spline.tessellate import tessellation_counts
+
+    suffix = check_export_path(path)
+    if suffix not in MESH_FORMATS:
+        return None
+    tri = surface.triangulation
+    r = export_resolution(tri.n_faces) if resolution is None else int(resolution)
+    nv, nt = tessellation_counts(tri.n_vertices, tri.n_edges, tri.n_faces, r)
+    if suffix == ".obj":
+        size = float(np.abs(np.asarray(surface.ctrl)).max()) if tri.n_faces else 1.0
+        return int(_obj_bytes(nv, nt, size))
+    per_vertex, per_triangle, header = MESH_BYTES[suffix]
+    return int(nv * per_vertex + nt * per_triangle + header)
