@@ -83,8 +83,8 @@ def _angle_pair(view: "str | Sequence[float]") -> list[float]:
         except ValueError:
             pair = []
         if len(pair) != 2:
-            raise RenderError(f"unknown view {view!r}: use one of {', '.join(VIEWS)} or 'azimuth,elevation' "
-                              f"in degrees, e.g. '-60,30'")
+            raise RenderError(f"unknown view {view!r}: use {AUTO}, one of {', '.join(VIEWS)} or "
+                              f"'azimuth,elevation' in degrees, e.g. '-60,30'")
         return pair
     try:
         pair = [float(p) for p in view]
@@ -96,9 +96,14 @@ def _angle_pair(view: "str | Sequence[float]") -> list[float]:
 
 
 def parse_view(view: "str | View | Sequence[float]") -> View:
-    """A :class:`View` from a name in :data:`VIEWS`, ``"azimuth,elevation"`` or a pair."""
+    """A :class:`View` from a name in :data:`VIEWS`, ``"azimuth,elevation"`` or a pair.
+
+    :data:`AUTO` needs the geometry: :func:`resolve_view` turns it into a View.
+    """
     if isinstance(view, View):
         return view
+    if isinstance(view, str) and view.strip().lower() == AUTO:
+        raise RenderError(f"the view {AUTO!r} depends on the surface: resolve it with resolve_view(view, V, F)")
     if isinstance(view, str) and view.strip().lower() in VIEWS:
         return View(*VIEWS[view.strip().lower()])
     az, el = _angle_pair(view)

@@ -119,8 +119,11 @@ def test_auto_view_is_shared_by_panels_and_a_panel_may_name_its_own():
     assert views[0] == views[1] and views[0]["auto"] and views[1]["auto"]
     assert views[2] == dict(azimuth=-90.0, elevation=90.0, roll=0.0, auto=False)
     assert rd.check_view(" Auto ") == rd.AUTO and rd.check_view("iso") == rd.parse_view("iso")
-    with pytest.raises(rd.RenderError, match="unknown view 'automatic'"):
+    with pytest.raises(rd.RenderError, match="unknown view 'automatic': use auto, one of iso"):
         rd.check_view("automatic")
+    with pytest.raises(rd.RenderError, match="resolve_view"):
+        rd.parse_view("auto")
+    assert rd.resolve_view("auto", *graph(lambda u, v: 0 * u).tessellate(1)[:2]) == rd.parse_view("top")
 
 
 # ============================================================================ zebra stripes
