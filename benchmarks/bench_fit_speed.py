@@ -1,34 +1,36 @@
-"""End-to-end fitting speed: time per stage at 10k, 50k, 100k, 200k faces.
+"""End-to-end fitting speed and memory: time per stage, total / factorisation, peak memory.
 
-Generated "scans": a wavy height field on a jittered grid with a few holes cut
-out, written to OBJ, then loaded, parameterized (harmonic), fitted and saved.
-``mountain.obj`` from ``../shared/data`` is added when present.
+Rows (each in its own process, so its peak memory is its own):
 
-    python benchmarks/bench_fit_speed.py                     # 10k 50k 100k 200k
-    python benchmarks/bench_fit_speed.py --faces 10000,50000 --no-real
+* ``scan Nk``: a wavy height field on a jittered grid, written to OBJ, then loaded,
+  parameterized (harmonic), fitted and saved in-process (``fit_surface``);
+* ``mountain.obj`` from ``../shared/data`` when present;
+* ``CLI random``: ``trispline fit --param uv`` end to end (interpreter and JAX start
+  included) on a height field over random points (Delaunay), by default 100k faces.
 
-Peer in the same run: ``scipy.interpolate.CloughTocher2DInterpolator`` building
-its interpolant on the same vertices (a height-field-only cubic, shown for scale).
+Peer in the same run: ``scipy.interpolate.CloughTocher2DInterpolator`` building its
+interpolant on the same points (a height-field-only cubic, shown for scale); ``x CT`` is
+the row's total over that build time. ``total/factor`` is the row's total (load to save)
+over its factorisation stage; ``peak MB`` the process's peak resident memory.
+
+    python benchmarks/bench_fit_speed.py                         # 10k 50k 100k 200k, CLI 100k
+    python benchmarks/bench_fit_speed.py --faces 500000 --cli 0 --no-real
 """
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-import jax
 import numpy as np
 
-jax.config.update("jax_enable_x64", True)
-
-from scipy.interpolate import CloughTocher2DInterpolator  # noqa: E402
-
-from trispline.fit import FitWeights, fit_surface  # noqa: E402
-from trispline.fit.io import load_mesh  # noqa: E402
-
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+STAGES = ["load", "parameterize", "build", "assemble", "factor", "solve", "finish", "save"]
 
 
 def make_scan(n_faces: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -49,8 +51,22 @@ def make_scan(n_faces: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     f2 = np.where(flip[:, None], np.column_stack([b, c, d]), np.column_stack([a, c, d]))
     F = np.concatenate([f1, f2])
     z = 0.15 * np.sin(6 * x) * np.cos(5 * y) + 0.05 * np.sin(23 * x * y) + 0.002 * rng.standard_normal(x.size)
-    V = np.column_stack([x, y, z])
-    return V, F
+    return np.column_stack([x, y, z]), F
+
+
+def make_random_scan(n_faces: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """A height field over random points of the unit square (Delaunay): about ``n_faces`` faces."""
+    from scipy.spatial import Delaunay
+
+    rng = np.random.default_rng(seed)
+    p = rng.random((n_faces // 2 + 2, 2))
+    F = Delaunay(p).simplices
+    x, y = p.T
+    e1, e2 = p[F[:, 1]] - p[F[:, 0]], p[F[:, 2]] - p[F[:, 0]]
+    ccw = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] > 0
+    F = np.where(ccw[:, None], F, F[:, [0, 2, 1]])
+    z = 0.15 * np.sin(6 * x) * np.cos(5 * y) + 0.05 * np.sin(23 * x * y)
+    return np.column_stack([x, y, z]), F
 
 
 def write_obj(path: Path, V: np.ndarray, F: np.ndarray) -> None:
@@ -59,53 +75,99 @@ def write_obj(path: Path, V: np.ndarray, F: np.ndarray) -> None:
         np.savetxt(fh, F + 1, fmt="f %d %d %d")
 
 
-def run(path: Path, label: str, weights: FitWeights) -> dict:
+def clough_tocher_seconds(V: np.ndarray) -> float:
+    """Seconds scipy's CloughTocher2DInterpolator takes to build on ``V[:, :2] -> V[:, 2]``."""
+    from scipy.interpolate import CloughTocher2DInterpolator
+
+    t = time.perf_counter()
+    CloughTocher2DInterpolator(V[:, :2], V[:, 2])
+    return time.perf_counter() - t
+
+
+def fit_row(path: Path) -> dict:
+    """Load, fit (harmonic) and save ``path`` in this process; the row's figures (run in a child)."""
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    from trispline.fit import fit_surface
+    from trispline.fit.io import load_mesh
+
     t0 = time.perf_counter()
     V, F = load_mesh(path)
     t_load = time.perf_counter() - t0
-    res = fit_surface(V, F, param="harmonic", weights=weights)
+    res = fit_surface(V, F, param="harmonic")
     t1 = time.perf_counter()
     res.surface.save(Path(tempfile.mkdtemp()) / "surface.npz")
-    t_save = time.perf_counter() - t1
-    # peer: Clough-Tocher on the same vertices (xy as domain)
-    t2 = time.perf_counter()
-    CloughTocher2DInterpolator(V[:, :2], V[:, 2])
-    t_peer = time.perf_counter() - t2
-    tm = dict(res.timings)
-    row = dict(label=label, faces=F.shape[0], free=res.stats["n_solved"], load=t_load, **tm, save=t_save)
-    row["total"] = t_load + sum(tm.values()) + t_save
-    row["steps"] = res.iterations
-    row["c1"] = res.c1_residual
-    row["peer"] = t_peer
+    row = dict(faces=int(F.shape[0]), free=int(res.stats["n_solved"]), load=t_load, **res.timings,
+               save=time.perf_counter() - t1, steps=int(res.iterations), c1=float(res.c1_residual))
+    row["total"] = sum(row[s] for s in STAGES)
+    row["peer"] = clough_tocher_seconds(V)
     return row
+
+
+def run_child(cmd: list[str]) -> tuple[float, float, str]:
+    """``(wall seconds, peak RSS in MB, stdout)`` of a child process (reaped with ``wait4``: its own rusage)."""
+    t = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    out = proc.stdout.read()
+    err = proc.stderr.read()
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(map(str, cmd))} failed ({proc.returncode}):\n{err[-2000:]}")
+    return wall, usage.ru_maxrss / 1024, out
+
+
+def print_row(label: str, r: dict) -> None:
+    ratio = r["total"] / r["factor"] if r.get("factor") else float("nan")
+    print(f"{label:<14} {r['faces']:>7} {r.get('free', 0):>8} | "
+          + " ".join(f"{r[s]:8.2f}" if s in r else f"{'':>8}" for s in STAGES)
+          + f" | {r['total']:8.2f} {ratio:7.2f} {r.get('steps', ''):>3} {r.get('c1', float('nan')):8.1e}"
+          + f" {r['peak']:8.0f} | {r['peer']:7.2f} {r['total'] / r['peer']:7.1f}")
+    sys.stdout.flush()
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--faces", default="10000,50000,100000,200000")
+    ap.add_argument("--faces", default="10000,50000,100000,200000", help="scan sizes (comma separated; '' for none)")
+    ap.add_argument("--cli", type=int, default=100000, help="faces of the CLI random-point row (0: none)")
     ap.add_argument("--no-real", action="store_true", help="skip mountain.obj")
+    ap.add_argument("--row", metavar="OBJ", help=argparse.SUPPRESS)  # internal: one in-process row, JSON out
     a = ap.parse_args(argv)
-    w = FitWeights()
-    stages = ["load", "parameterize", "build", "assemble", "factor", "solve", "finish", "save"]
-    hdr = f"{'mesh':<14} {'faces':>7} {'unknowns':>8} | " + " ".join(f"{s:>8}" for s in stages) + \
-        f" | {'total s':>8} {'GN':>3} {'C1 rel':>8} | {'CT peer s':>9}"
+    if a.row:
+        print(json.dumps(fit_row(Path(a.row))))
+        return 0
+    hdr = (f"{'mesh':<14} {'faces':>7} {'unknowns':>8} | " + " ".join(f"{s[:8]:>8}" for s in STAGES)
+           + f" | {'total s':>8} {'t/factor':>7} {'GN':>3} {'C1 rel':>8} {'peak MB':>8} | {'CT s':>7} {'x CT':>7}")
+    print(f"load average at start {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")
     print(hdr)
     print("-" * len(hdr))
-    jobs = []
     tmp = Path(tempfile.mkdtemp())
-    for nf in [int(s) for s in a.faces.split(",")]:
+    jobs = []
+    for nf in [int(s) for s in a.faces.split(",") if s]:
         V, F = make_scan(nf)
-        p = tmp / f"scan_{nf}.obj"
-        write_obj(p, V, F)
-        jobs.append((p, f"scan {nf // 1000}k"))
+        write_obj(tmp / f"scan_{nf}.obj", V, F)
+        jobs.append((tmp / f"scan_{nf}.obj", f"scan {nf // 1000}k"))
     if not a.no_real and (DATA / "mountain.obj").exists():
         jobs.append((DATA / "mountain.obj", "mountain.obj"))
-    for p, label in jobs:
-        r = run(p, label, w)
-        print(f"{r['label']:<14} {r['faces']:>7} {r['free']:>8} | "
-              + " ".join(f"{r.get(s, 0.0):8.2f}" for s in stages)
-              + f" | {r['total']:8.2f} {r['steps']:>3} {r['c1']:8.1e} | {r['peer']:9.2f}")
-        sys.stdout.flush()
+    for path, label in jobs:
+        wall, peak, out = run_child([sys.executable, __file__, "--row", str(path)])
+        r = json.loads(out.strip().splitlines()[-1])
+        r["peak"] = peak
+        print_row(label, r)
+    if a.cli:
+        V, F = make_random_scan(a.cli)
+        path = tmp / "random.obj"
+        write_obj(path, V, F)
+        cmd = [sys.executable, "-m", "trispline.fit", "fit", str(path), "-o", str(tmp / "random.npz"),
+               "--param", "uv", "--json", "--quiet"]
+        wall, peak, out = run_child(cmd)
+        d = json.loads(out)
+        r = dict(faces=int(F.shape[0]), total=wall, peak=peak, peer=clough_tocher_seconds(V),
+                 steps=d["iterations"], c1=d["c1_residual"], **d["timings"])
+        print_row(f"CLI random {a.cli // 1000}k", r)
+    print(f"load average at end {os.getloadavg()[0]:.2f}")
     return 0
 
 

@@ -8,6 +8,15 @@ class FitError(RuntimeError):
     """The solver did not converge (raised by :func:`fit_surface` unless ``throw=False``)."""
 
 
+class FactorMemoryError(InputError):
+    """The fit's sparse factorisation would need more memory than is available (refused before it starts)."""
+
+    def __init__(self, message: str, *, estimate: int, available: int) -> None:
+        super().__init__(message)
+        self.estimate = estimate  # bytes
+        self.available = available  # bytes
+
+
 class X64Error(RuntimeError):
     """JAX is not running in float64."""
 

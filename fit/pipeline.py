@@ -17,8 +17,6 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 from typing import Any, Callable
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
@@ -29,14 +27,15 @@ from trispline.spline.errors import InputError
 from trispline.spline.index import CORNER
 from trispline.spline.propagation import SplineSpace, build_space
 from trispline.spline.surface import SplineSurface
-from trispline.spline.tolerances import CONVERGED_GRAD_RTOL, GN_ATOL, GN_RTOL
 from trispline.spline.topology import Triangulation, signed_areas
 from trispline.spline.util.timer import StageTimer
 
 from . import energy as en
 from .energy.data import DataPoints, as_data_points
 from .errors import FitError
-from .solve import FactorSolver, SparseCholesky, require_x64
+from .gauss_newton import QuadraticStep, iterate
+from .progress import stage_reporter
+from .solve import SparseCholesky, check_memory, estimate_factor_bytes, require_x64
 from .stages import ASSEMBLE, BUILD, FACTOR, FINISH, PARAMETERIZE, SOLVE
 from .weights import FitWeights
 
@@ -112,7 +111,7 @@ def fit_surface(
     weights: FitWeights = FitWeights(),
     data_points: DataPoints | tuple | None = None,
     solver: optx.AbstractLeastSquaresSolver | None = None,
-    progress: Callable[[str, float], None] | None = None,
+    progress: Callable[..., None] | None = None,
     throw: bool = True,
     max_steps: int = 50,
 ) -> FitResult:
@@ -135,7 +134,10 @@ def fit_surface(
     solver : an optimistix least-squares solver; default Gauss--Newton with the
         host sparse Cholesky (direct when the energy is quadratic, factor-preconditioned
         CG when ``weights.angle > 0``)
-    progress : ``progress(stage, seconds)`` called after each stage
+    progress : ``progress(stage, seconds)`` called after each stage (the names of
+        :data:`~trispline.fit.stages.FIT_STAGES`); a callback taking a third argument is
+        also called as ``progress(stage, seconds so far, fraction)`` while a long stage's
+        chunks of work finish (the command line's progress bar)
     throw : raise :class:`FitError` if the solver did not converge
     max_steps : Gauss--Newton step cap
 
@@ -152,6 +154,8 @@ def fit_surface(
     clock(PARAMETERIZE)
     tri = Triangulation(uv, faces)
     space = build_space(tri)
+    # refuse a factorisation that cannot fit in memory before assembling it (the analysis checks again)
+    check_memory(estimate_factor_bytes(space.n_free - tri.n_vertices, 0), "available")
     clock(BUILD)
     dp = None if data_points is None else as_data_points(data_points, tri.n_faces)
     # solve in normalised coordinates (optimistix's stopping tests are per element)
@@ -159,13 +163,18 @@ def fit_surface(
     size = float(np.ptp(V, axis=0).max()) or 1.0
     if dp is not None:
         dp = DataPoints(dp.face, dp.bary, (dp.xyz - centre) / size)
-    prob = en.setup_problem((V - centre) / size, space, weights, dp)
+    prob = en.setup_problem((V - centre) / size, space, weights, dp, report=stage_reporter(progress, ASSEMBLE))
     clock(ASSEMBLE)
-    factor = SparseCholesky(prob.H)
+    step = QuadraticStep(prob) if solver is None and not prob.nonlinear else None  # compiles meanwhile
+    factor = SparseCholesky(prob.H_upper, upper=True, max_bytes="available",
+                            report=stage_reporter(progress, FACTOR))
     clock(FACTOR)
-    x, steps, ok = _solve(prob, factor, solver, max_steps)
+    if step is not None:
+        x, energies, steps, ok = step.run(factor)
+    else:
+        x, energies, steps, ok = iterate(prob, factor, solver, max_steps)
     clock(SOLVE)
-    result = _finish(V, space, prob, x, centre, size, steps, ok, weights, parameterization)
+    result = _finish(V, space, prob, x, energies, centre, size, steps, ok, weights, parameterization)
     clock(FINISH)
     if throw and not ok:
         raise FitError(
@@ -175,8 +184,8 @@ def fit_surface(
     return FitResult(**result, timings=clock.timings)
 
 
-def _finish(V: np.ndarray, space: SplineSpace, prob: en.Problem, x: np.ndarray, centre: np.ndarray, size: float,
-            steps: int, ok: bool, weights: FitWeights, parameterization) -> dict:
+def _finish(V: np.ndarray, space: SplineSpace, prob: en.Problem, x: np.ndarray, energies: dict[str, float],
+            centre: np.ndarray, size: float, steps: int, ok: bool, weights: FitWeights, parameterization) -> dict:
     """The result's fields (all but the timings): control points, energies in data units, checks."""
     tri = space.tri
     free = np.zeros((space.n_free, 3))
@@ -185,7 +194,7 @@ def _finish(V: np.ndarray, space: SplineSpace, prob: en.Problem, x: np.ndarray, 
     ctrl = space.control_points(free)
     # the residuals are linear in the data's scale, except the angle term's
     units = en.energy_units(size)
-    energies = {k: float(v) * units[k] for k, v in _energies_jit(jnp.asarray(x), prob.args).items()}
+    energies = {k: v * units[k] for k, v in energies.items()}
     rep = continuity_report(tri, ctrl)
     interp = float(np.abs(ctrl[np.arange(tri.n_faces)[:, None], CORNER[None, :]] - V[tri.faces]).max())
     extras = dict(data_vertices=V, free=free, fit_weights=np.array(list(asdict(weights).values()), float))
@@ -193,31 +202,5 @@ def _finish(V: np.ndarray, space: SplineSpace, prob: en.Problem, x: np.ndarray, 
         surface=SplineSurface(tri.uv, tri.faces, ctrl, extras=extras), ctrl=ctrl, free=free, space=space,
         energies=energies, iterations=steps, converged=bool(ok), c1_residual=float(rep["c1_relative"]),
         max_interpolation_error=interp, parameterization=parameterization, uv=tri.uv, faces=tri.faces,
-        weights=weights, stats=dict(n_free=space.n_free, n_solved=int(prob.free_r.size), H_nnz=int(prob.H.nnz),
+        weights=weights, stats=dict(n_free=space.n_free, n_solved=int(prob.free_r.size), H_nnz=prob.H_nnz,
                                     continuity=rep))
-
-
-def _half_sum_squares(x: jax.Array, args: dict) -> jax.Array:
-    return 0.5 * sum(jnp.sum(r * r) for r in en.residuals(x, args).values())
-
-
-_gradient_jit = jax.jit(jax.grad(_half_sum_squares))
-_energies_jit = jax.jit(en.energies)
-
-
-def _solve(prob: en.Problem, factor: SparseCholesky, solver, max_steps: int) -> tuple[np.ndarray, int, bool]:
-    """Gauss--Newton; returns ``(x (k, 3), steps, converged)``."""
-    if solver is None:
-        lin = FactorSolver(factor, mode="pcg" if prob.nonlinear else "direct")
-        solver = optx.GaussNewton(rtol=GN_RTOL, atol=GN_ATOL, norm=optx.rms_norm, linear_solver=lin)
-    # Start from the linear terms' optimum (one host solve with the factor). For a quadratic
-    # energy Gauss--Newton then only confirms stationarity (2 steps instead of 3).
-    x0 = jnp.asarray(factor.solve(prob.rhs))
-    sol = optx.least_squares(en.residuals, solver, x0, prob.args, max_steps=max_steps, throw=False)
-    x = sol.value
-    steps = int(sol.stats["num_steps"])
-    # independent stationarity check: |J^T r| small relative to the gradient at zero
-    gnorm = float(jnp.abs(_gradient_jit(x, prob.args)).max())
-    gref = float(jnp.abs(_gradient_jit(jnp.zeros_like(x), prob.args)).max()) or 1.0
-    ok = sol.result == optx.RESULTS.successful and gnorm <= CONVERGED_GRAD_RTOL * gref
-    return np.asarray(x), steps, bool(ok)

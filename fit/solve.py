@@ -21,7 +21,9 @@ and compiling it again (1-2 s per small fit).
 """
 from __future__ import annotations
 
+import functools
 import itertools
+import os
 import weakref
 from typing import Any
 
@@ -31,9 +33,12 @@ import jax.numpy as jnp
 import lineax as lx
 import numpy as np
 import scipy.sparse as sp
-from .errors import X64Error
 
-__all__ = ["SparseCholesky", "FactorSolver", "require_x64"]
+from .errors import FactorMemoryError, X64Error
+from .progress import Report, silent
+
+__all__ = ["SparseCholesky", "FactorSolver", "require_x64", "symmetric_from_upper", "estimate_factor_bytes",
+           "pardiso_factor_bytes", "available_memory", "check_memory"]
 
 #: Live factors by handle (weak: a factor lives as long as its owner keeps it).
 _FACTORS: "weakref.WeakValueDictionary[int, SparseCholesky]" = weakref.WeakValueDictionary()
@@ -45,8 +50,7 @@ def require_x64() -> None:
     if not jax.config.jax_enable_x64:
         raise X64Error(
             "trispline fits in float64: enable it first with "
-            "jax.config.update('jax_enable_x64', True) (the CLI and tests do this), "
-            "or run inside `with jax.experimental.enable_x64():`"
+            "jax.config.update('jax_enable_x64', True) (the CLI and tests do this)"
         )
 
 
@@ -76,14 +80,109 @@ def _pick_backend(requested: str | None, n: int) -> str:
     return "splu"  # pragma: no cover - cholespy is a dependency
 
 
+def symmetric_from_upper(U: sp.spmatrix) -> sp.csr_array:
+    """The full symmetric matrix ``U + U^T - diag(U)`` of an upper triangle ``U (n, n)``, CSR."""
+    H = sp.csr_array(U + U.T - sp.diags_array(U.diagonal()))
+    H.sum_duplicates()
+    H.sort_indices()
+    return H
+
+
+#: Factor entries per unknown and per ``log2`` of the unknowns: the fit matrices' nested-dissection
+#: fill. PARDISO's analysis (METIS ordering) of the benchmark scans found 8.7, 9.0, 9.4, 9.8, 9.9
+#: at 10k, 25k, 50k, 100k, 200k faces (55k to 1.1M unknowns).
+FILL_PER_LOG2 = 10.0
+#: Bytes per factor entry: PARDISO's numerical phase allocated 9.1 per entry of its factor
+#: (a float64 value and its share of the supernode tables).
+FACTOR_ENTRY_BYTES = 9
+
+
+def estimate_factor_bytes(n: int, nnz_upper: int) -> int:
+    """Estimated bytes of a sparse Cholesky factor of an ``(n, n)`` fit matrix, without analysing it.
+
+    The fit's normal matrices are 2D-mesh matrices (each unknown couples with ~38 others);
+    nested dissection fills them to about ``FILL_PER_LOG2 n log2 n`` entries, or at least
+    their upper triangle's ``nnz_upper``. Used for the backends that report nothing
+    before factoring (cholespy, splu); PARDISO reports its own (:func:`pardiso_factor_bytes`).
+    """
+    fill = FILL_PER_LOG2 * n * np.log2(max(n, 2))
+    return int(FACTOR_ENTRY_BYTES * max(fill, nnz_upper))
+
+
+def pardiso_factor_bytes(iparm: np.ndarray) -> int:
+    """Bytes PARDISO's numerical factorisation will allocate, from its analysis report ``iparm``.
+
+    MKL (0-based ``iparm`` after phase 11): ``iparm[16]`` is the memory of the numerical
+    factorisation and solution in KB; the analysis's own (``iparm[14]`` peak, ``iparm[15]``
+    kept) is already allocated by then.
+    """
+    return 1024 * int(iparm[16])
+
+
+def available_memory() -> int | None:
+    """Bytes of memory the system can give without swapping (``MemAvailable``), or None if unknown."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:  # pragma: no cover - not Linux
+        return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):  # pragma: no cover
+        return None
+
+
+@functools.lru_cache(maxsize=None)
+def _point_pypardiso_at_mkl() -> None:
+    """Tell pypardiso where MKL's runtime library is (its documented ``PYPARDISO_MKL_RT``), once.
+
+    Where ``ctypes`` cannot find ``mkl_rt`` (a wheel install), pypardiso walks every folder
+    under ``sys.prefix`` for it each time a solver is made: 2 s of a 100k-face fit. The
+    wheel puts it in ``sys.prefix/lib``.
+    """
+    if os.environ.get("PYPARDISO_MKL_RT"):
+        return
+    import ctypes.util
+    import glob
+    import sys
+
+    found = ctypes.util.find_library("mkl_rt") or min(glob.glob(f"{sys.prefix}/lib/libmkl_rt*"), key=len, default=None)
+    if found:
+        os.environ["PYPARDISO_MKL_RT"] = found
+
+
+def check_memory(estimate: int, max_bytes: int | str | None) -> None:
+    """Raise :class:`FactorMemoryError` when ``estimate`` bytes exceed ``max_bytes``.
+
+    ``max_bytes``: bytes, ``"available"`` (:func:`available_memory` now) or None (no check).
+    """
+    limit = available_memory() if max_bytes == "available" else max_bytes
+    if limit is None or estimate <= limit:
+        return
+    raise FactorMemoryError(
+        f"the sparse factorisation of this fit needs about {estimate / 2**30:.1f} GiB, but only "
+        f"{limit / 2**30:.1f} GiB of memory are available; fit a smaller mesh, or approximate it with "
+        f"fewer patches: trispline fit --tolerance TOL (approximation mode)", estimate=estimate, available=limit)
+
+
 class SparseCholesky:
     """Sparse Cholesky factor of an SPD matrix, solved on the host.
 
     Parameters
     ----------
-    H : scipy sparse (n, n), symmetric positive definite (both triangles stored)
+    H : scipy sparse (n, n), symmetric positive definite: both triangles stored, or only
+        the upper one (diagonal included) with ``upper=True``
     backend : ``"pardiso"``, ``"cholespy"``, ``"splu"`` or None (auto: PARDISO from
         :data:`PARDISO_MIN_UNKNOWNS` unknowns when installed, else cholespy; env ``TRISPLINE_SOLVER``)
+    upper : ``H`` holds only its upper triangle
+    max_bytes : refuse with :class:`~trispline.fit.errors.FactorMemoryError` when the
+        factorisation's estimated memory (:attr:`estimate`, known after the symbolic
+        analysis and before any numerical work) exceeds this; ``"available"``: the
+        memory the system has available now (:func:`available_memory`); None: no check
+    report : progress (:mod:`trispline.fit.progress`): PARDISO's analysis done
+    defer : stop after the analysis and the memory check; :meth:`factorize` finishes
 
     Notes
     -----
@@ -92,9 +191,13 @@ class SparseCholesky:
     ``pardiso`` (MKL PARDISO via the ``pypardiso`` wheel: METIS ordering, optimised
     BLAS, threads) 5.5 s; ``cholespy`` (bundled CHOLMOD, which links the reference
     netlib BLAS) 15.5 s; ``scipy.sparse.linalg.splu`` as the last resort.
+    PARDISO analyses first (phase 11: ordering and symbolic factorisation, which
+    report the factor's size) and factors numerically after the memory check (phase
+    22); the other backends are estimated by :func:`estimate_factor_bytes`.
     """
 
-    def __init__(self, H: sp.spmatrix, backend: str | None = None) -> None:
+    def __init__(self, H: sp.spmatrix, backend: str | None = None, *, upper: bool = False,
+                 max_bytes: int | str | None = None, report: Report | None = None, defer: bool = False) -> None:
         H = sp.csr_matrix(H, dtype=np.float64)
         if H.shape[0] != H.shape[1]:
             raise ValueError(f"H must be square, got {H.shape}")
@@ -104,31 +207,60 @@ class SparseCholesky:
         self.handle = next(_HANDLES)
         _FACTORS[self.handle] = self
         self.backend = _pick_backend(backend, self.n)
+        U = H if upper else sp.triu(H, format="csr")
+        #: Estimated bytes of the numerical factorisation (PARDISO: its own analysis).
+        self.estimate = estimate_factor_bytes(self.n, U.nnz)
         if self.backend == "pardiso":
-            import pypardiso
+            self._analyse_pardiso(U)
+            (report or silent)(0.5)  # the analysis takes about half of the time
+        check_memory(self.estimate, max_bytes)
+        self._pending: sp.csr_matrix | None = U
+        if not defer:
+            self.factorize()
 
-            self._upper = sp.triu(H, format="csr")
-            self._upper.sort_indices()
-            self._solver = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
-            self._solver.set_iparm(8, 0)  # no iterative refinement steps: the factor is exact
-            try:
-                self._solver.factorize(self._upper)
-            except pypardiso.pardiso_wrapper.PyPardisoError as exc:  # -4: zero or negative pivot
-                raise np.linalg.LinAlgError(f"the normal matrix is not positive definite ({exc})") from exc
+    def factorize(self) -> None:
+        """The numerical factorisation (done by the constructor unless ``defer``; then once, here)."""
+        U, self._pending = self._pending, None
+        if U is None:
+            return
+        if self.backend == "pardiso":
+            self._factor_pardiso()
         elif self.backend == "cholespy":
             import cholespy
 
-            self._solver = cholespy.CholeskySolverD(
-                self.n,
-                H.indptr.astype(np.int32),
-                H.indices.astype(np.int32),
-                np.ascontiguousarray(H.data),
-                cholespy.MatrixType.CSR,
-            )
+            L = sp.csr_matrix(U.T)  # cholespy reads the lower triangle of a CSR matrix
+            L.sort_indices()
+            self._solver = cholespy.CholeskySolverD(self.n, L.indptr.astype(np.int32), L.indices.astype(np.int32),
+                                                    np.ascontiguousarray(L.data), cholespy.MatrixType.CSR)
         else:
             import scipy.sparse.linalg as spla
 
-            self._solver = spla.splu(H.tocsc())
+            self._solver = spla.splu(symmetric_from_upper(U).tocsc())
+
+    def _analyse_pardiso(self, U: sp.csr_matrix) -> None:
+        """PARDISO phase 11 on the upper triangle ``U``; sets :attr:`estimate` from its report."""
+        import pypardiso
+
+        _point_pypardiso_at_mkl()
+        self._upper = U
+        self._solver = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
+        self._solver.set_iparm(8, 0)  # no iterative refinement steps: the factor is exact
+        self._pardiso(11)
+        self.estimate = pardiso_factor_bytes(self._solver.iparm)
+
+    def _factor_pardiso(self) -> None:
+        """PARDISO phase 22: the numerical factorisation."""
+        import pypardiso
+
+        try:
+            self._pardiso(22)
+        except pypardiso.pardiso_wrapper.PyPardisoError as exc:  # -4: zero or negative pivot
+            raise np.linalg.LinAlgError(f"the normal matrix is not positive definite ({exc})") from exc
+
+    def _pardiso(self, phase: int, b: np.ndarray | None = None) -> np.ndarray:
+        """One PARDISO phase on the stored upper triangle; ``b (n, k)`` Fortran order for phase 33."""
+        self._solver.set_phase(phase)
+        return self._solver._call_pardiso(self._upper, np.zeros((self.n, 1)) if b is None else b)
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """``H^{-1} b`` for ``b: (n,)`` or ``(n, k)``."""
@@ -136,15 +268,14 @@ class SparseCholesky:
         if self.backend == "splu":
             return self._solver.solve(b)
         if self.backend == "pardiso":
-            self._solver.set_phase(33)
-            x = self._solver._call_pardiso(self._upper, np.asfortranarray(b))
+            x = self._pardiso(33, np.asfortranarray(b))
             return np.ascontiguousarray(x).reshape(b.shape)
         x = np.zeros_like(b)
         self._solver.solve(b, x)
         return x
 
     def __del__(self) -> None:
-        if getattr(self, "backend", None) == "pardiso":
+        if getattr(self, "backend", None) == "pardiso" and hasattr(self, "_solver"):
             try:
                 self._solver.free_memory(everything=True)
             except Exception:  # pragma: no cover - interpreter shutdown
@@ -177,24 +308,34 @@ class FactorSolver(lx.AbstractLinearSolver):
     Parameters
     ----------
     factor : SparseCholesky of ``H``, the (exact or approximate) ``J^T J`` per coordinate
-        (kept alive by the caller; the solver holds its handle only)
+        (kept alive by the caller; the solver holds its handle only), or such a factor's
+        handle (an integer array, possibly traced: one compiled program serves any factor)
     mode : ``"direct"`` (``y = H^{-1} J^T r``) or ``"pcg"``
     rtol : relative residual tolerance of the preconditioned CG
     max_steps : CG iteration cap
+    refine : ``"direct"`` only: steps of iterative refinement against ``J`` itself,
+        ``y += H^{-1} J^T (r - J y)``. The factor is of ``H`` as assembled, whose rounding
+        limits a plain solve to ``~cond(H) eps`` (5e-12 on a 150-vertex height field whose
+        x and y must come back exactly); one refinement step against the residuals' own
+        Jacobian brings the solve to their rounding (1e-15), for one more ``J``, ``J^T``
+        product and host solve.
     """
 
     handle: jax.Array
     mode: str = eqx.field(static=True)
     rtol: float = eqx.field(static=True)
     max_steps: int = eqx.field(static=True)
+    refine: int = eqx.field(static=True)
 
-    def __init__(self, factor: SparseCholesky, mode: str = "direct", rtol: float = 1e-8, max_steps: int = 200):
+    def __init__(self, factor: SparseCholesky | jax.Array | int, mode: str = "direct", rtol: float = 1e-8,
+                 max_steps: int = 200, refine: int = 0):
         if mode not in ("direct", "pcg"):
             raise ValueError(f"mode must be 'direct' or 'pcg', got {mode!r}")
-        self.handle = jnp.asarray(factor.handle)
+        self.handle = jnp.asarray(factor.handle if isinstance(factor, SparseCholesky) else factor)
         self.mode = mode
         self.rtol = rtol
         self.max_steps = max_steps
+        self.refine = int(refine)
 
     @property
     def factor(self) -> SparseCholesky:
@@ -211,6 +352,8 @@ class FactorSolver(lx.AbstractLinearSolver):
         apply_h_inv = lambda v: _apply_factor(self.handle, v)  # noqa: E731
         if self.mode == "direct":
             y = apply_h_inv(g)
+            for _ in range(self.refine):
+                y = y + apply_h_inv(JT.mv(jax.tree_util.tree_map(jnp.subtract, vector, J.mv(y))))
             return y, lx.RESULTS.successful, {"cg_steps": jnp.asarray(0)}
         normal = lambda v: JT.mv(J.mv(v))  # noqa: E731
         y0 = apply_h_inv(g)

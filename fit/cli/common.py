@@ -73,31 +73,50 @@ class UI:
 
 
 class Stages:
-    """A tqdm bar over named stages on stderr; appears only for work taking over ~1 s."""
+    """A tqdm bar over named stages on stderr; appears only for work taking over ~1 s.
+
+    Each stage is :data:`UNITS` steps of the bar: :meth:`done` completes the current (or the
+    named) stage, :meth:`at` moves within a stage as its chunks of work finish, so a long
+    stage shows live progress and the elapsed time ticks on.
+    """
+
+    #: Bar steps per stage.
+    UNITS = 100
 
     def __init__(self, names: Sequence[str], title: str, disable: bool) -> None:
         from tqdm import tqdm
 
         self.names = list(names)
         self.title = title
-        self.i = 0
-        self.bar = tqdm(total=len(self.names), desc=self._desc(), file=sys.stderr, disable=disable,
-                        delay=1.0, leave=False, bar_format="{desc} {bar:20} {n}/{total} [{elapsed}]")
+        self.i = 0  # the current stage
+        self.position = 0  # bar steps done
+        self.bar = tqdm(total=len(self.names) * self.UNITS, desc=self._desc(), file=sys.stderr, disable=disable,
+                        delay=1.0, leave=False, bar_format="{desc} {bar:20} {percentage:3.0f}% [{elapsed}]")
 
     def _desc(self) -> str:
         name = self.names[self.i] if self.i < len(self.names) else "done"
         return f"{self.title}: {name}"
 
+    def _move(self, position: int) -> None:
+        if position > self.position:
+            self.bar.set_description_str(self._desc(), refresh=False)
+            self.bar.update(position - self.position)
+            self.position = position
+
     def done(self, name: str | None = None) -> None:
         """Mark the current (or the named) stage finished."""
         if name is not None and name in self.names:
-            step = self.names.index(name) + 1 - self.i
+            self.i = max(self.i, self.names.index(name) + 1)
         else:
-            step = 1
-        if step > 0:
-            self.i += step
-            self.bar.set_description_str(self._desc(), refresh=False)
-            self.bar.update(step)
+            self.i += 1
+        self._move(self.i * self.UNITS)
+
+    def at(self, name: str, fraction: float) -> None:
+        """Stage ``name`` is ``fraction`` (0..1) done (earlier stages count as finished)."""
+        if name not in self.names:
+            return
+        self.i = max(self.i, self.names.index(name))
+        self._move(int(self.names.index(name) * self.UNITS + min(max(fraction, 0.0), 1.0) * (self.UNITS - 1)))
 
     def close(self) -> None:
         self.bar.close()

@@ -28,7 +28,6 @@ from .common import EXIT_OK, UI, add_common, check_output, distinct, fmt, nonneg
 
 __all__ = ["WEIGHT_FIELDS", "FIT_STAGES", "EXAMPLE_FACES", "add_parsers", "cmd_fit", "cmd_demo"]
 
-#: Stages reported by ``fit_surface(progress=...)``, in order (for the progress bar).
 #: Default faces of the built-in example scan.
 EXAMPLE_FACES = 800
 #: One flag per :class:`~trispline.fit.weights.FitWeights` field: ``(name, type of its default)``
@@ -216,11 +215,23 @@ def _solve(args: argparse.Namespace, ui: UI, mesh: _Input) -> tuple[Any, Any, fl
         t0 = time.perf_counter()
         try:
             result = fit_surface(mesh.V, mesh.F, uv=mesh.uv, param=args.param, weights=weights,
-                                 max_steps=args.max_steps, progress=lambda stage, _seconds: bar.done(stage))
+                                 max_steps=args.max_steps, progress=_progress(bar))
         except FitError as exc:
             raise CommandFailed(f"{exc} (try a larger --max-steps or other weights)") from exc
         seconds = time.perf_counter() - t0
     return result, weights, seconds
+
+
+def _progress(bar: Any) -> Callable[..., None]:
+    """``fit_surface``'s progress callback for the bar: stage ends, and chunks within a stage."""
+
+    def progress(stage: str, _seconds: float, fraction: float | None = None) -> None:
+        if fraction is None:
+            bar.done(stage)
+        else:
+            bar.at(stage, fraction)
+
+    return progress
 
 
 def _write(args: argparse.Namespace, ui: UI, surface: Any, outputs: dict[str, Path | None],
@@ -272,5 +283,6 @@ def _fit_text(d: dict) -> str:
         f"  energies: {e}",
         f"  Gauss-Newton steps {d['iterations']}, C1 residual {fmt(d['c1_residual'])} (relative), "
         f"max interpolation error {fmt(d['max_interpolation_error'])}, {d['seconds']:.1f} s",
+        "  time: " + ", ".join(f"{k} {v:.2f} s" for k, v in d["timings"].items()),
         *(f"  wrote {p}" for p in d["outputs"]),
     ])

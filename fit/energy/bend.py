@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from trispline.spline.index import NCTRL
+from trispline.spline.util.parallel import Workers
 
 from .arrays import Array, array_module
 from .quadrature import PAIRS, pair_hessians, pair_moments
@@ -73,6 +74,19 @@ def residual(ctrl: Array, frames: Array, a: dict) -> Array:
     return xp.einsum("fqpc,fps,q->fqsc", d2, a["W"], a["sqw"])
 
 
+#: Patches per chunk of :func:`add_normal` (a temporary of chunk * 441 floats, 14 MB).
+GRAM_CHUNK = 4096
+
+
 def add_normal(parts: NormalParts, a: dict) -> None:
-    """Adds the Gram matrices to the patch blocks (no target: nothing on the right-hand side)."""
-    parts.blocks += gram(a["W"])
+    """Adds the Gram matrices to the patch blocks (no target: nothing on the right-hand side).
+
+    In chunks of patches on a thread per core: no temporary of the blocks' full size.
+    """
+    W = a["W"]
+
+    def add(lo: int, hi: int) -> None:
+        parts.blocks[lo:hi] += gram(W[lo:hi])
+
+    with Workers(W.shape[0], parallel_min=2 * GRAM_CHUNK, serial_blas=True) as work:
+        work.map(add, W.shape[0], GRAM_CHUNK)

@@ -14,6 +14,7 @@ import numpy as np
 
 from trispline.spline.propagation import SplineSpace
 
+from ..progress import Report, silent, span
 from ..targets import LocalRBFFit, local_rbf_fit
 from ..weights import FitWeights
 from .data import DataPoints
@@ -37,6 +38,7 @@ class TermContext:
     frame_scale : (m,) their frame scales ``d_v``; vertex_area : (m,) a third of their incident uv areas
     data_points : DataPoints on the patches (face ids into the n patches), or None
     sample_weight : ``n_vertices / domain area`` of the whole triangulation (``1 / h^2`` of the data term)
+    report : progress of the terms' setup (:mod:`trispline.fit.progress`; the local targets use it)
     """
 
     weights: FitWeights
@@ -52,6 +54,7 @@ class TermContext:
     vertex_area: np.ndarray
     data_points: DataPoints | None
     sample_weight: float
+    report: Report = silent
 
 
 def vertex_areas(faces: np.ndarray, areas: np.ndarray, n_vertices: int) -> np.ndarray:
@@ -66,7 +69,7 @@ def frame_ids(space: SplineSpace, vertices: np.ndarray) -> np.ndarray:
 
 def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, faces: np.ndarray | None = None,
                  frame_vertices: np.ndarray | None = None, halo: np.ndarray | None = None,
-                 data_points: DataPoints | None = None) -> TermContext:
+                 data_points: DataPoints | None = None, report: Report | None = None) -> TermContext:
     """The context of patches ``faces`` and the frames of ``frame_vertices`` (default: all).
 
     Parameters
@@ -75,6 +78,7 @@ def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, face
     faces : (n,) patches; frame_vertices : (m,) vertices (sorted)
     halo : (nh,) faces whose data the local fits see; it must hold every face around the
         frame vertices and the patches' vertices (default: all faces)
+    report : progress of the local fits (its first 60%) and of the terms' setup (the rest)
     """
     tri = space.tri
     if halo is None:
@@ -90,7 +94,8 @@ def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, face
     return TermContext(
         weights=w, areas=tri.areas[faces], bary_gradients=tri.bary_gradients[faces],
         faces=renumber(tri.faces[faces]), uv=tri.uv[hv], V=V[hv], halo_faces=hfaces,
-        fit=local_rbf_fit(tri.uv[hv], V[hv], hfaces, max_degree=w.fit_degree, rings=w.fit_rings),
+        fit=local_rbf_fit(tri.uv[hv], V[hv], hfaces, max_degree=w.fit_degree, rings=w.fit_rings,
+                          report=span(report, 0.0, 0.6)),
         frame_vertices=renumber(fv), frame_scale=space.frame_scale[fv],
         vertex_area=vertex_areas(hfaces, harea, hv.size)[renumber(fv)], data_points=data_points,
-        sample_weight=tri.n_vertices / float(tri.areas.sum()))
+        sample_weight=tri.n_vertices / float(tri.areas.sum()), report=span(report, 0.6, 1.0))

@@ -16,6 +16,7 @@ import numpy as np
 from trispline.spline.bernstein import basis
 from trispline.spline.index import CORNER, DEGREE, EXPONENTS, NCTRL, STAR
 
+from ..progress import Report, span
 from .arrays import Array
 
 if TYPE_CHECKING:
@@ -34,12 +35,14 @@ MASK[STAR[STAR >= 0]] = False
 MASK.setflags(write=False)
 
 
-def blended_targets(uv: np.ndarray, faces: np.ndarray, evaluate_fit: Callable, *, power: float = 2.0) -> np.ndarray:
+def blended_targets(uv: np.ndarray, faces: np.ndarray, evaluate_fit: Callable, *, power: float = 2.0,
+                    report: Report | None = None) -> np.ndarray:
     """Per-patch target nets ``(F, 21, d)`` from the three vertices' local fits.
 
-    ``evaluate_fit(vertex_ids (F,), points (F, 21, 2)) -> (F, 21, d)`` evaluates the local
-    fit of ``vertex_ids[f]`` at the 21 domain points of patch ``f`` (the grouped form of
-    :meth:`trispline.fit.targets.LocalRBFFit.evaluate`); ``uv (nv, 2)``, ``faces (F, 3)``.
+    ``evaluate_fit(vertex_ids (F,), points (F, 21, 2), report) -> (F, 21, d)`` evaluates the
+    local fit of ``vertex_ids[f]`` at the 21 domain points of patch ``f`` (the grouped form of
+    :meth:`trispline.fit.targets.LocalRBFFit.evaluate`); ``uv (nv, 2)``, ``faces (F, 3)``;
+    ``report``: progress (:mod:`trispline.fit.progress`).
     """
     faces = np.asarray(faces, np.int64)
     grid = EXPONENTS / DEGREE  # the control points' domain points, barycentric
@@ -49,7 +52,8 @@ def blended_targets(uv: np.ndarray, faces: np.ndarray, evaluate_fit: Callable, *
     beta = e / e.sum(1, keepdims=True)  # (21, 3)
     out = None
     for k in range(3):
-        net = np.einsum("ij,fjd->fid", Binv, evaluate_fit(faces[:, k], pts))
+        vals = evaluate_fit(faces[:, k], pts, span(report, k / 3, (k + 1) / 3))
+        net = np.einsum("ij,fjd->fid", Binv, vals, optimize=True)  # one GEMM
         term = beta[None, :, k, None] * net
         out = term if out is None else out + term
     return out
@@ -61,7 +65,7 @@ def setup(ctx: TermContext) -> dict[str, np.ndarray]:
     n = ctx.faces.shape[0]
     if w.local <= 0:
         return dict(index=np.zeros(0, np.int64), target=np.zeros((0, 3)), scale=np.zeros(0))
-    target = blended_targets(ctx.uv, ctx.faces, ctx.fit.evaluate, power=w.blend_power)
+    target = blended_targets(ctx.uv, ctx.faces, ctx.fit.evaluate, power=w.blend_power, report=ctx.report)
     face, slot = np.nonzero(np.broadcast_to(MASK, (n, NCTRL)))
     return dict(index=face * NCTRL + slot, target=target[face, slot], scale=np.sqrt(w.local / ctx.areas[face]))
 

@@ -8,6 +8,7 @@ by :func:`setup_problem`), never closed over, so XLA does not constant-fold the 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import jax
 import jax.numpy as jnp
@@ -19,6 +20,8 @@ from trispline.spline.propagation import SplineSpace
 from ..weights import FitWeights
 from .context import frame_ids, term_context
 from .data import DataPoints
+from ..progress import Report, span
+from ..solve import symmetric_from_upper
 from .normal import normal_equations
 from .terms import MODULES, is_nonlinear, normal_parts, setup_terms, term_residuals
 
@@ -32,22 +35,42 @@ class Problem:
     Attributes
     ----------
     args : pytree of JAX arrays for :func:`residuals`
-    H : (k, k) sparse SPD normal matrix of the linear terms (one per coordinate)
+    H_upper : (k, k) CSR upper triangle (diagonal included) of the sparse SPD normal matrix
+        ``H`` of the linear terms (one per coordinate): all the factorisation reads
     rhs : (k, 3) their right-hand side: ``H^{-1} rhs`` minimises the linear terms
     free_r : (k,) free ids of the unknowns
     nonlinear : whether a nonlinear term has rows
     """
 
     args: dict
-    H: sp.csr_array
+    H_upper: sp.csr_array
     rhs: np.ndarray
     free_r: np.ndarray
     nonlinear: bool
 
+    @cached_property
+    def H(self) -> sp.csr_array:
+        """``(k, k)`` the full symmetric normal matrix (built from :attr:`H_upper` on first use)."""
+        return symmetric_from_upper(self.H_upper)
+
+    @property
+    def H_nnz(self) -> int:
+        """Stored entries of the full ``H`` (both triangles), without building it."""
+        return 2 * int(self.H_upper.nnz) - int(np.count_nonzero(self.H_upper.diagonal()))
+
+    def gradient(self, x: np.ndarray) -> np.ndarray:
+        """``(k, 3)`` gradient ``H x - rhs`` of the linear terms' half sum of squares at ``x (k, 3)``."""
+        U = self.H_upper
+        return U @ x + U.T @ x - U.diagonal()[:, None] * x - self.rhs
+
 
 def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
-                  data_points: DataPoints | None = None) -> Problem:
-    """Targets, residual arrays and normal equations for data vertices ``V (nv, 3)``."""
+                  data_points: DataPoints | None = None, report: Report | None = None) -> Problem:
+    """Targets, residual arrays and normal equations for data vertices ``V (nv, 3)``.
+
+    ``report``: progress (:mod:`trispline.fit.progress`): the local fits and targets take
+    about 70% of the time, the normal equations most of the rest.
+    """
     is_fixed = np.zeros(space.n_free, bool)
     is_fixed[space.corner_free] = True
     free_r = np.flatnonzero(~is_fixed)
@@ -58,17 +81,19 @@ def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
     M_r.sort_indices()
     c0 = np.asarray(M[:, space.corner_free] @ V)
 
-    ctx = term_context(space, V, weights, data_points=data_points)
+    ctx = term_context(space, V, weights, data_points=data_points, report=span(report, 0.0, 0.7))
     terms = setup_terms(ctx)
     frame_pos = pos[frame_ids(space, ctx.frame_vertices)]
     A = M_r[np.asarray(space.point_index).ravel()]  # (21 F, k) patch points per unknown
     parts = normal_parts(terms, space.tri.n_faces, frame_pos.size)
-    H, rhs = normal_equations(A, c0[np.asarray(space.point_index).ravel()], frame_pos, parts)
+    span(report, 0.0, 0.8)(1.0)
+    H_upper, rhs = normal_equations(A, c0[np.asarray(space.point_index).ravel()], frame_pos, parts, upper=True,
+                                    report=span(report, 0.8, 0.95))
 
     Mc = M_r.tocoo()
     args = dict(M_rows=Mc.row.astype(np.int64), M_cols=Mc.col.astype(np.int64), M_vals=Mc.data, c0=c0,
                 point_index=space.point_index, frame_pos=frame_pos, terms=terms)
-    return Problem(args=jax.tree_util.tree_map(jnp.asarray, args), H=H, rhs=rhs, free_r=free_r,
+    return Problem(args=jax.tree_util.tree_map(jnp.asarray, args), H_upper=H_upper, rhs=rhs, free_r=free_r,
                    nonlinear=is_nonlinear(terms))
 
 

@@ -1,0 +1,297 @@
+"""The fast paths of the fit equal their plain definitions; the factor's memory is estimated and refused.
+
+Each fast path (issue 19) is checked against a slow, obviously-correct oracle written here:
+the per-patch assembly of ``H`` against the sparse triple product ``A^T B A``, the local
+fits against a per-vertex loop, their grouped evaluation against the formula point by
+point, the neighbour order against a lexicographic sort, and the one Gauss--Newton step
+against Gauss--Newton iterated to convergence.
+"""
+from __future__ import annotations
+
+import ctypes
+import importlib.util
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from scipy.spatial import Delaunay
+
+jax.config.update("jax_enable_x64", True)
+
+from trispline.fit import energy as en  # noqa: E402
+from trispline.fit import solve  # noqa: E402
+from trispline.fit.datasets.franke import exponential, sample_points  # noqa: E402
+from trispline.fit.datasets.synthetic import synthetic_scan  # noqa: E402
+from trispline.fit.errors import FactorMemoryError  # noqa: E402
+from trispline.fit.gauss_newton import QuadraticStep, iterate  # noqa: E402
+from trispline.fit.pipeline import fit_surface  # noqa: E402
+from trispline.fit.progress import accepts_fraction, map_reporting, span  # noqa: E402
+from trispline.fit.solve import SparseCholesky, estimate_factor_bytes  # noqa: E402
+from trispline.fit.stages import ASSEMBLE, FIT_STAGES  # noqa: E402
+from trispline.fit.targets import RBF_KERNELS, _poly3, local_rbf_fit, padded_neighbours, vertex_rings  # noqa: E402
+from trispline.fit.weights import FitWeights  # noqa: E402
+from trispline.spline.errors import InputError  # noqa: E402
+from trispline.spline.propagation import build_space  # noqa: E402
+from trispline.spline.testing.domains import orient_ccw, random_delaunay  # noqa: E402
+from trispline.spline.topology import Triangulation  # noqa: E402
+from trispline.spline.util.parallel import Workers  # noqa: E402
+
+HAS_PARDISO = importlib.util.find_spec("pypardiso") is not None
+
+
+def _scan(n_faces: int) -> tuple[np.ndarray, np.ndarray]:
+    """The speed benchmark's jittered-grid height field (``benchmarks/bench_fit_speed.py``)."""
+    path = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_fit_speed.py"
+    spec = importlib.util.spec_from_file_location("bench_fit_speed", path)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    return bench.make_scan(n_faces)
+
+
+def _franke(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    p = sample_points(n, seed=seed)
+    F = orient_ccw(p, Delaunay(p).simplices)
+    return np.column_stack([p, exponential(p[:, 0], p[:, 1])]), F
+
+
+@pytest.fixture(scope="module", params=["franke", "holes"])
+def problem(request):
+    """``(V, space, weights)``: a height field, and a bumpy surface over a domain with holes."""
+    if request.param == "franke":
+        V, F = _franke(150, seed=4)
+        uv = V[:, :2]
+    else:
+        uv, F = random_delaunay(260, holes=2, seed=7)
+        V = np.column_stack([uv, np.sin(3 * uv[:, 0]) * np.cos(2 * uv[:, 1])])
+    return V, build_space(Triangulation(uv, F)), FitWeights()
+
+
+# ---------------------------------------------------------------- normal equations
+def test_per_patch_assembly_equals_the_triple_product(problem):
+    V, space, w = problem
+    prob = en.setup_problem(V, space, w)
+    ctx = en.term_context(space, V, w)
+    parts = en.normal_parts(en.setup_terms(ctx), space.tri.n_faces, 2 * space.tri.n_vertices)
+    M = sp.csc_matrix(space.M)
+    A = sp.csr_matrix(M[:, prob.free_r])[np.asarray(space.point_index).ravel()]
+    c = np.asarray(M[:, space.corner_free] @ V)[np.asarray(space.point_index).ravel()]
+    B = sp.block_diag(list(parts.blocks), format="csr")
+    frame_pos = np.asarray(prob.args["frame_pos"])
+    k = A.shape[1]
+    H_ref = A.T @ B @ A + sp.csr_matrix((parts.frame_weight, (frame_pos, frame_pos)), shape=(k, k))
+    rhs_ref = A.T @ (parts.patch_rhs.reshape(-1, 3) - B @ c)
+    np.add.at(rhs_ref, frame_pos, parts.frame_rhs)
+    H, rhs = en.normal_equations(A, c, frame_pos, parts)
+    scale = abs(H_ref).max()
+    assert abs(H - H_ref).max() <= 1e-13 * scale
+    np.testing.assert_allclose(rhs, rhs_ref, rtol=0, atol=1e-13 * np.abs(rhs_ref).max())
+    U, _ = en.normal_equations(A, c, frame_pos, parts, upper=True)
+    assert abs(U - sp.triu(H_ref)).max() <= 1e-13 * scale and sp.tril(U, -1).nnz == 0
+    assert abs(prob.H - H_ref).max() <= 1e-13 * scale  # the problem's full H, built from its upper triangle
+    assert prob.H_nnz == H.nnz
+    x = np.random.default_rng(0).normal(size=(k, 3))
+    np.testing.assert_allclose(prob.gradient(x), H_ref @ x - prob.rhs, rtol=0, atol=1e-12 * scale * np.abs(x).max())
+
+
+# ---------------------------------------------------------------- local fits
+def _lexsorted_neighbours(uv, faces, rings, max_neighbours):
+    """The neighbour lists by one lexicographic sort of (vertex, distance): the plain definition."""
+    nv = uv.shape[0]
+    R = vertex_rings(faces, nv, rings)
+    row = np.repeat(np.arange(nv), np.diff(R.indptr))
+    col = R.indices.astype(np.int64)
+    order = np.lexsort((np.linalg.norm(uv[col] - uv[row], axis=1), row))
+    row, col = row[order], col[order]
+    rank = np.arange(row.size) - R.indptr[row]
+    keep = rank < max_neighbours
+    count = np.minimum(np.diff(R.indptr), max_neighbours)
+    nbr = np.full((nv, int(count.max())), -1, np.int64)
+    nbr[row[keep], rank[keep]] = col[keep]
+    return nbr, count
+
+
+@pytest.mark.parametrize("rings, most", [(3, 32), (2, 32), (1, 4)])
+def test_neighbour_order_equals_a_lexicographic_sort(rings, most):
+    from trispline.spline.testing.domains import grid
+
+    for uv, F in (random_delaunay(300, holes=1, seed=2), grid(9, 7)):  # the grid has ties in distance
+        nbr, count = padded_neighbours(uv, F, rings, most)
+        ref_nbr, ref_count = _lexsorted_neighbours(uv, F, rings, most)
+        np.testing.assert_array_equal(nbr, ref_nbr)
+        np.testing.assert_array_equal(count, ref_count)
+
+
+def _vertex_fit(X, Y, valid, p, q):
+    """One vertex's interpolant with kernel ``r^p`` and degree ``q``: ``(lam, coef, loo score)`` or None."""
+    Xv, Yv = X[valid], Y[valid]
+    m = (q + 1) * (q + 2) // 2
+    if Xv.shape[0] < max(2 * m, 3):
+        return None
+    r = np.linalg.norm(Xv[:, None] - Xv[None, :], axis=2)
+    P = np.stack([np.ones(len(Xv)), Xv[:, 0], Xv[:, 1], Xv[:, 0] ** 2, Xv[:, 0] * Xv[:, 1], Xv[:, 1] ** 2,
+                  Xv[:, 0] ** 3, Xv[:, 0] ** 2 * Xv[:, 1], Xv[:, 0] * Xv[:, 1] ** 2, Xv[:, 1] ** 3], axis=1)[:, :m]
+    n = len(Xv)
+    A = np.block([[r**p, P], [P.T, np.zeros((m, m))]])
+    S = np.linalg.solve(A, np.vstack([Yv, np.zeros((m, Yv.shape[1]))]))
+    Ainv = np.linalg.inv(A)
+    nloo = min(7, n)
+    e = S[:nloo] / np.diag(Ainv)[:nloo, None]
+    return S[:n], S[n:], np.sqrt(np.sum(e * e))
+
+
+def test_local_fits_equal_a_per_vertex_loop(problem):
+    V, space, _ = problem
+    tri = space.tri
+    fit = local_rbf_fit(tri.uv, V, tri.faces)
+    K = fit.centres.shape[1]
+    nbr, _ = padded_neighbours(tri.uv, tri.faces, 3)
+    rng = np.random.default_rng(5)
+    for v in range(tri.n_vertices):
+        valid = np.concatenate([[True], nbr[v] >= 0])[:K]
+        X = fit.centres[v]
+        Y = V[np.concatenate([[v], np.where(nbr[v] >= 0, nbr[v], 0)])[:K]] - V[v] - X @ fit.slope[v]
+        best = None
+        for p, q in RBF_KERNELS:
+            out = _vertex_fit(X, Y, valid, p, q)
+            if out is not None and np.isfinite(out[2]) and (best is None or out[2] < best[3]):
+                best = (p, out[0], out[1], out[2])
+        assert fit.power[v] == (best[0] if best else 0), v
+        if best is None:
+            continue
+        # the interpolants agree (their coefficients are as ill-conditioned as the r^7 systems)
+        P = X[valid].mean(0) + 0.5 * rng.normal(size=(5, 2))
+        r = np.linalg.norm(P[:, None] - X[valid][None], axis=2)
+        ref = r ** best[0] @ best[1] + _poly3(P[:, 0], P[:, 1])[:, :best[2].shape[0]] @ best[2]
+        got = fit.evaluate(np.full(5, v), (fit.origin[v] + fit.scale[v] * P)) - fit.value[v] - P @ fit.slope[v]
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9 * (np.abs(Y).max() + 1e-300))
+
+
+def test_grouped_evaluation_equals_the_formula_point_by_point(problem):
+    V, space, _ = problem
+    tri = space.tri
+    fit = local_rbf_fit(tri.uv, V, tri.faces, max_degree=3)
+    assert len(set(fit.power.tolist())) > 1  # mixed kernels within one call
+    rng = np.random.default_rng(3)
+    vertex = rng.integers(0, tri.n_vertices, 400)
+    points = tri.uv[vertex][:, None] + 0.05 * rng.normal(size=(400, 21, 2))
+    out = fit.evaluate(vertex, points)
+    ref = np.empty_like(out)
+    for i, v in enumerate(vertex):
+        X = (points[i] - fit.origin[v]) / fit.scale[v]
+        r = np.linalg.norm(X[:, None] - fit.centres[v][None], axis=2)
+        phi = r ** fit.power[v] if fit.power[v] else np.zeros_like(r)
+        ref[i] = fit.value[v] + X @ fit.slope[v] + phi @ fit.lam[v] + _poly3(X[:, 0], X[:, 1]) @ fit.coef[v]
+    np.testing.assert_allclose(out, ref, rtol=0, atol=1e-10 * np.abs(ref).max())
+    np.testing.assert_allclose(fit.evaluate(vertex, points[:, 0]), out[:, 0], rtol=0, atol=1e-12 * np.abs(ref).max())
+
+
+# ---------------------------------------------------------------- the solve
+def test_one_step_equals_gauss_newton_iterated_to_convergence(problem):
+    V, space, w = problem
+    prob = en.setup_problem(V, space, w)
+    factor = SparseCholesky(prob.H_upper, upper=True)
+    x, energies, steps, ok = QuadraticStep(prob).run(factor)
+    x_ref, energies_ref, steps_ref, ok_ref = iterate(prob, factor, None, 50)
+    assert ok and ok_ref and steps == 1 and steps_ref > 1
+    np.testing.assert_allclose(x, x_ref, rtol=0, atol=1e-9 * np.abs(x_ref).max())  # GN_RTOL
+    for k in energies:
+        assert energies[k] == pytest.approx(energies_ref[k], rel=1e-9, abs=1e-15)
+    g = np.asarray(jax.grad(lambda y: 0.5 * sum(jnp.sum(r * r) for r in en.residuals(y, prob.args).values()))(
+        jnp.asarray(x)))
+    assert np.abs(g).max() <= 1e-12 * np.abs(prob.rhs).max()  # exact to rounding, not just to 1e-6
+
+
+def test_fit_with_progress_fractions():
+    V, F = synthetic_scan(2500)
+    calls = []
+    res = fit_surface(V, F, progress=lambda stage, seconds, fraction=None: calls.append((stage, seconds, fraction)))
+    ends = [c[0] for c in calls if c[2] is None]
+    assert ends == list(FIT_STAGES) and res.iterations == 1
+    within = [c[2] for c in calls if c[0] == ASSEMBLE and c[2] is not None]
+    assert len(within) >= 4 and within == sorted(within) and 0 < within[0] and within[-1] <= 1
+    two = []
+    V2, F2 = synthetic_scan(200)
+    fit_surface(V2, F2, progress=lambda stage, seconds: two.append(stage))
+    assert two == list(FIT_STAGES)  # the two-argument form is only called at stage ends
+
+
+def test_progress_helpers():
+    assert accepts_fraction(lambda a, b, c=None: None) and accepts_fraction(lambda *a: None)
+    assert not accepts_fraction(lambda a, b: None)
+    seen = []
+    span(seen.append, 0.5, 1.0)(0.5)
+    assert seen == [0.75]
+    with Workers(10_000, parallel_min=1) as work:
+        out = map_reporting(work, lambda lo, hi: (lo, hi), 10_000, 1000, seen.append)
+    assert out == [(lo, min(lo + 1000, 10_000)) for lo in range(0, 10_000, 1000)]
+    assert seen[1:] == sorted(seen[1:]) and seen[-1] == 1.0
+
+
+def test_cli_stages_bar_moves_within_a_stage():
+    from trispline.fit.cli.common import Stages
+
+    bar = Stages(["a", "b", "c"], "t", disable=True)
+    bar.at("b", 0.5)
+    assert bar.i == 1 and bar.position == Stages.UNITS + int(0.5 * (Stages.UNITS - 1))
+    bar.done("b")
+    assert bar.i == 2 and bar.position == 2 * Stages.UNITS
+    bar.at("a", 0.9)  # never backwards
+    assert bar.i == 2 and bar.position == 2 * Stages.UNITS
+
+
+# ---------------------------------------------------------------- the factor's memory
+@pytest.mark.skipif(not HAS_PARDISO, reason="pypardiso not installed")
+def test_factor_memory_estimates_match_the_measured_factor():
+    """PARDISO's analysis and the formula both predict what the numerical factorisation allocates.
+
+    Measured: the bytes MKL's allocator holds after the numerical phase less those before
+    (``mkl_mem_stat``; the factor is all PARDISO allocates there).
+    """
+    for n_faces in (4_000, 10_000, 20_000):
+        V, F = _scan(n_faces)
+        space = build_space(Triangulation(V[:, :2], F))
+        prob = en.setup_problem(V, space, FitWeights())
+        factor = SparseCholesky(prob.H_upper, "pardiso", upper=True, defer=True)
+        mkl = factor._solver.libmkl
+        mkl.mkl_mem_stat.restype = ctypes.c_int64
+        buffers = ctypes.c_int(0)
+        before = mkl.mkl_mem_stat(ctypes.byref(buffers))
+        factor.factorize()
+        measured = mkl.mkl_mem_stat(ctypes.byref(buffers)) - before
+        formula = estimate_factor_bytes(prob.H_upper.shape[0], prob.H_upper.nnz)
+        # the analysis's figure also covers the solves' work space: an upper bound, within 2x
+        assert 0.5 * factor.estimate <= measured <= 1.05 * factor.estimate, (n_faces, factor.estimate, measured)
+        assert 0.8 * measured <= formula <= 1.5 * measured, (n_faces, formula, measured)
+        x = factor.solve(prob.rhs)
+        assert np.abs(prob.gradient(x)).max() <= 1e-9 * np.abs(prob.rhs).max()
+
+
+def test_fit_refused_above_available_memory(monkeypatch, tmp_path):
+    V, F = synthetic_scan(600)
+    monkeypatch.setattr(solve, "available_memory", lambda: 1 << 20)
+    called = []
+    monkeypatch.setattr(en, "setup_problem", lambda *a, **k: called.append(1))
+    with pytest.raises(FactorMemoryError, match=r"needs about .* GiB.*trispline fit --tolerance") as info:
+        fit_surface(V, F)
+    assert isinstance(info.value, InputError) and not called  # refused before the assembly
+    assert info.value.estimate > info.value.available == 1 << 20
+
+    from trispline.fit.cli import main
+
+    out = tmp_path / "s.npz"
+    assert main(["fit", "--example", "--example-faces", "300", "-o", str(out), "--quiet"]) == 2
+    assert not out.exists()
+
+
+def test_factor_refused_after_its_analysis():
+    V, F = _franke(400, seed=1)
+    space = build_space(Triangulation(V[:, :2], F))
+    prob = en.setup_problem(V, space, FitWeights())
+    backend = "pardiso" if HAS_PARDISO else "cholespy"
+    with pytest.raises(FactorMemoryError, match="approximate"):
+        SparseCholesky(prob.H_upper, backend, upper=True, max_bytes=1000)
+    f = SparseCholesky(prob.H_upper, backend, upper=True, max_bytes=10 * (1 << 30))
+    assert 0 < f.estimate < 10 * (1 << 30)
