@@ -14,7 +14,10 @@ Any other key is optional: writers may add them, readers keep them as
 atomically (:func:`~trispline.spline.util.atomic.atomic_path`: a temporary file in
 the target folder, then :func:`os.replace`), so a failed write never leaves a
 partial file behind, and with the permissions of any other output (``0o666``
-minus the umask, or those of the file it replaces).
+minus the umask, or those of the file it replaces). Reading trusts nothing: an NPZ
+file's member headers are checked against the format and against the members' sizes
+before any data is read (:mod:`~trispline.spline.util.npz`), and a JSON file's version
+and degree must be true integers, its integers fit int64 and its nesting Python's stack.
 """
 from __future__ import annotations
 
