@@ -53,8 +53,9 @@ def spline_row(uv: np.ndarray, faces: np.ndarray, **kw) -> dict:
     quintic = random_polynomial(5, 3, seed=2)
     st = space.stats
     ctrl = space.control_points(np.random.default_rng(0).normal(size=(space.n_free, 3)))
-    return dict(lin=reproduction(space, lambda p: np.column_stack([p[:, 0], p[:, 1], 0.3 * p[:, 0] - 0.2 * p[:, 1]])),
-                quintic=reproduction(space, quintic), max_M=float(np.abs(space.M.data).max()),
+    plane = lambda p: np.column_stack([p[:, 0], p[:, 1], 0.3 * p[:, 0] - 0.2 * p[:, 1]])  # noqa: E731
+    return dict(lin=reproduction(space, plane), quintic=reproduction(space, quintic),
+                max_M=float(np.abs(space.M.data).max()),
                 elim=st["max_elimination_coefficient"], singular=space.n_singular, snapped=st["snapped_vertices"],
                 exact=st["exact_vertices"], move=st["max_relative_move"],
                 c1=continuity_report(space.tri, ctrl)["c1_relative"], build=build)
@@ -62,8 +63,9 @@ def spline_row(uv: np.ndarray, faces: np.ndarray, **kw) -> dict:
 
 def spline_table(n: int) -> None:
     print(f"# spline: {n} x {n} grids perturbed by eps; 'peer' = the double-only build (snap_tol=0, exact_tol=0)")
-    hdr = (f"{'grid':>10} {'eps':>6} | {'lin':>7} {'peer':>7} | {'quintic':>7} {'peer':>7} | {'max|M|':>6} {'peer':>6} | "
-           f"{'elim':>5} {'peer':>5} | {'sing':>4} {'snap':>4} {'dd':>4} {'move/h':>7} {'C1':>7} | {'build s':>7} {'peer':>6}")
+    hdr = (f"{'grid':>10} {'eps':>6} | {'lin':>7} {'peer':>7} | {'quintic':>7} {'peer':>7} | "
+           f"{'max|M|':>6} {'peer':>6} | {'elim':>5} {'peer':>5} | {'sing':>4} {'snap':>4} {'dd':>4} "
+           f"{'move/h':>7} {'C1':>7} | {'build s':>7} {'peer':>6}")
     print(hdr)
     print("-" * len(hdr))
     for kind in ("crisscross", "alternate"):
@@ -71,9 +73,10 @@ def spline_table(n: int) -> None:
         for eps in EPS:
             uv = domains.perturb(uv0, faces, eps, seed=1) if eps else uv0
             a, b = spline_row(uv, faces), spline_row(uv, faces, **PEER)
-            print(f"{kind:>10} {eps:>6.0e} | {a['lin']:>7.1e} {b['lin']:>7.1e} | {a['quintic']:>7.1e} {b['quintic']:>7.1e} | "
-                  f"{a['max_M']:>6.1f} {b['max_M']:>6.1f} | {a['elim']:>5.1f} {b['elim']:>5.1f} | {a['singular']:>4} "
-                  f"{a['snapped']:>4} {a['exact']:>4} {a['move']:>7.1e} {a['c1']:>7.1e} | {a['build']:>7.3f} {b['build']:>6.3f}")
+            print(f"{kind:>10} {eps:>6.0e} | {a['lin']:>7.1e} {b['lin']:>7.1e} | {a['quintic']:>7.1e} "
+                  f"{b['quintic']:>7.1e} | {a['max_M']:>6.1f} {b['max_M']:>6.1f} | {a['elim']:>5.1f} {b['elim']:>5.1f} | "
+                  f"{a['singular']:>4} {a['snapped']:>4} {a['exact']:>4} {a['move']:>7.1e} {a['c1']:>7.1e} | "
+                  f"{a['build']:>7.3f} {b['build']:>6.3f}")
 
 
 @contextlib.contextmanager

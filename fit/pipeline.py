@@ -48,7 +48,8 @@ class FitResult:
 
     Attributes
     ----------
-    surface : SplineSurface (with the data vertices, free points and weights as extras)
+    surface : SplineSurface (with the data vertices, free points and weights as extras, and
+        ``domain_max_move`` where nearly singular domain vertices were snapped)
     ctrl : (F, 21, 3) control points
     free : (n_free, 3) all free points (corners included)
     space : SplineSpace
@@ -198,6 +199,9 @@ def _finish(V: np.ndarray, space: SplineSpace, prob: en.Problem, x: np.ndarray, 
     rep = continuity_report(tri, ctrl)
     interp = float(np.abs(ctrl[np.arange(tri.n_faces)[:, None], CORNER[None, :]] - V[tri.faces]).max())
     extras = dict(data_vertices=V, free=free, fit_weights=np.array(list(asdict(weights).values()), float))
+    if space.stats["snapped_vertices"]:  # uv moved onto exact crossings (spline.propagation.snap): by how much
+        extras.update(domain_max_move=space.stats["max_move"],
+                      domain_max_relative_move=space.stats["max_relative_move"])
     return dict(
         surface=SplineSurface(tri.uv, tri.faces, ctrl, extras=extras), ctrl=ctrl, free=free, space=space,
         energies=energies, iterations=steps, converged=bool(ok), c1_residual=float(rep["c1_relative"]),

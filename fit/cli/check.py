@@ -81,6 +81,9 @@ def _stored_fit(ex: dict, corners: np.ndarray) -> dict[str, Any]:
         if key in ex:
             v = np.asarray(ex[key])
             report[key[4:]] = v.item() if v.ndim == 0 else v.tolist()
+    for key in ("domain_max_move", "domain_max_relative_move"):  # fit snapped domain vertices (issue 14)
+        if key in ex:
+            report[key] = float(np.asarray(ex[key]))
     if "data_vertices" in ex:
         D = np.asarray(ex["data_vertices"], float)
         if D.shape == corners.shape:
@@ -114,6 +117,9 @@ def _check_text(d: dict) -> str:
         lines.append("  stored energies: " + ", ".join(f"{k} {fmt(v)}" for k, v in d["energies"].items()))
     if "max_interpolation_error" in d:
         lines.append(f"  max interpolation error: {fmt(d['max_interpolation_error'])}")
+    if "domain_max_move" in d:
+        lines.append(f"  domain snapped onto exact crossings: largest move {fmt(d['domain_max_move'])} "
+                     f"({fmt(d.get('domain_max_relative_move', float('nan')))} of an edge)")
     if "approximation" in d:
         a, dev = d["approximation"], d["approximation"]["deviation"]
         tol = "no tolerance" if a.get("tolerance") is None else \

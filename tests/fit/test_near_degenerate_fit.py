@@ -1,0 +1,53 @@
+"""Fits over nearly singular domains (issue 14): snapped uv stored with its largest move, and reported.
+
+The whole table (30 x 30, eps 0 ... 1e-2, against the double-only build) is
+``benchmarks/bench_near_degenerate.py``; here one small height field at eps = 1e-13
+(snapped) and one at 1e-7 (double-double pass, nothing moved).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from trispline.fit.cli.check import _check_text, surface_report
+from trispline.fit.datasets.franke import exponential
+from trispline.fit.pipeline import fit_surface
+from trispline.spline.index import lattice
+from trispline.spline.surface import SplineSurface
+from trispline.spline.testing import domains
+from trispline.spline.tolerances import SNAP_TOL
+
+
+def worst_xy_error(surface) -> float:
+    """``max |(x, y)(u, v) - (u, v)|`` over 28 points per patch: a height field over ``uv = (x, y)``."""
+    bary = lattice(6) / 6.0
+    fi = np.repeat(np.arange(surface.faces.shape[0]), len(bary))
+    bb = np.tile(bary, (surface.faces.shape[0], 1))
+    dom = np.einsum("nk,nkd->nd", bb, surface.uv[surface.faces[fi]])
+    return float(np.abs(surface.evaluate(fi, bb)[:, :2] - dom).max())
+
+
+@pytest.mark.parametrize("eps", [1e-13, 1e-7])
+def test_height_field_over_a_nearly_singular_grid(eps, tmp_path):
+    uv, faces = domains.grid(8, diagonal="crisscross")
+    uv = domains.perturb(uv, faces, eps, seed=1)
+    V = np.column_stack([uv, exponential(uv[:, 0], uv[:, 1])])
+    res = fit_surface(V, faces, uv=V[:, :2])
+    stats = res.space.stats
+    assert worst_xy_error(res.surface) <= 1e-12
+    assert res.c1_residual < 1e-13
+    ex = res.surface.extras
+    if eps < 1e-12:  # snapped: the surface's uv is the triangulation used, the move is stated
+        assert stats["snapped_vertices"] > 0
+        np.testing.assert_array_equal(res.surface.uv, res.space.tri.uv)
+        assert float(ex["domain_max_move"]) == stats["max_move"] == np.linalg.norm(res.surface.uv - uv, axis=1).max()
+        assert float(ex["domain_max_relative_move"]) <= SNAP_TOL
+        path = tmp_path / "s.npz"
+        res.surface.save(path)
+        report = surface_report(SplineSurface.load(path))
+        assert report["domain_max_move"] == stats["max_move"] and report["ok"]
+        assert "domain snapped onto exact crossings" in _check_text(dict(report, file=str(path)))
+    else:  # double-double pass only: the domain is the input
+        assert stats["snapped_vertices"] == 0 and stats["exact_vertices"] > 0
+        assert "domain_max_move" not in ex
+        np.testing.assert_array_equal(res.surface.uv, uv)
