@@ -29,6 +29,10 @@ class OutputError(InputError):
     """An output path that cannot be written (missing folder, a folder, no permission)."""
 
 
+class ResourceError(InputError):
+    """A request whose result would not fit in memory, refused before the work starts."""
+
+
 class DependentPointError(InputError):
     """The control point is computed by the propagation, not free; see ``controllers``."""
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .util import gather as _gather
+from .util import gather as _gather, memory as _memory
 from .index import NCTRL
 from .bernstein import basis, basis_gradient_bary, basis_hessian_bary
 from .checks import as_array, check_ids
@@ -46,7 +46,7 @@ def check_ctrl(faces: np.ndarray, ctrl: np.ndarray) -> np.ndarray:
 def _check_queries(nf: int, face_idx: np.ndarray, bary: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``face_idx: (n,)`` int64 ids of the ``nf`` faces and ``bary: (n, 3)`` float64, validated."""
     face_idx = check_ids(as_array(face_idx, "face_idx", (None,), integer=True, whole_floats=False), "face_idx", nf)
-    return face_idx, as_array(bary, "bary", (face_idx.shape[0], 3))
+    return face_idx, as_array(bary, "bary", (face_idx.shape[0], 3), finite=True)
 
 
 def evaluate(
@@ -222,6 +222,8 @@ def numeric_continuity(
     if n_samples < 2:
         raise InputError(f"n_samples must be >= 2, got {n_samples}")
     ie = tri.interior_edges
+    _memory.require_memory(ie.size * n_samples * 2 * 20 * 8,
+                           f"sampling {ie.size} edges at {n_samples} points each", "use fewer samples")
     d = ctrl.shape[2]
     flat = ctrl.reshape(-1, d)
     scale = float(np.linalg.norm(flat.max(0) - flat.min(0))) if flat.size else 0.0

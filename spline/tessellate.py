@@ -207,8 +207,11 @@ def tessellate(
     tri = triangulation if triangulation is not None else Triangulation(uv, faces)
     ctrl = check_ctrl(tri.faces, ctrl)
     d, nf = ctrl.shape[2], tri.n_faces
-    lay, owners = _local_layout(r), _edge_owners(tri)
     m, nt = tessellation_counts(tri.n_vertices, tri.n_edges, nf, r)
+    _memory.require_memory(m * (d + 5) * 8 + nt * 3 * np.dtype(_memory.index_dtype(m)).itemsize,
+                           f"tessellating {nf} patches at resolution {r} ({m} points, {nt} triangles)",
+                           "use a lower resolution")
+    lay, owners = _local_layout(r), _edge_owners(tri)
     mesh = Tessellation(np.empty((m, d)), np.empty((nt, 3), _memory.index_dtype(m)),
                         np.empty((m, 3 if d == 3 else 0)), np.empty((m, 2)))
     with _parallel.Workers(nf, parallel_min=PARALLEL_FACES, serial_blas=True) as work:

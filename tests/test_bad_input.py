@@ -38,7 +38,7 @@ from trispline.fit.cli import main
 from trispline.fit.io import read_mesh
 from trispline.param import MeshError, distortion_report, parameterize, repair_mesh, validate_mesh
 from trispline.param.testing import bumpy_disk
-from trispline.spline.errors import InputError, OutputError, SurfaceFileError
+from trispline.spline.errors import InputError, OutputError, ResourceError, SurfaceFileError
 from trispline.spline.serialize import FORMAT
 from trispline.spline.surface import SplineSurface
 from trispline.spline.testing import random_c1_surface
@@ -539,3 +539,26 @@ def test_bad_api_arguments(case):
     call, kind, message = API_CASES[case]
     with pytest.raises(kind, match=message):
         call()
+
+
+# ==================================================================== resource limits
+RESOURCE_CASES = {  # name: call that must be refused up front, naming the size it would need
+    "tessellate resolution 1e6": lambda: _c1().tessellate(10**6),
+    "sample_surface resolution 3e5": lambda: __import__("trispline.fit.render", fromlist=["x"]).sample_surface(
+        _c1(), 300_000),
+    "continuity 1e10 samples per edge": lambda: _c1().continuity(10**10),
+    "synthetic scan of 1e9 faces": lambda: __import__(
+        "trispline.fit.datasets.synthetic", fromlist=["x"]).synthetic_scan(10**9),
+}
+
+
+@pytest.mark.parametrize("case", list(RESOURCE_CASES))
+def test_resource_limits_are_stated_before_the_work(case):
+    """Absurd sizes end in one ResourceError (an InputError: exit 2) naming the memory needed, at once."""
+    with pytest.raises(ResourceError, match=r"would need about [\d.]+ [kMGTP]?B of memory, but only"):
+        RESOURCE_CASES[case]()
+
+
+def test_nan_barycentric_coordinates_are_refused():
+    with pytest.raises(InputError, match="bary has non-finite entries"):
+        _c1().evaluate(np.array([0]), np.array([[np.nan, 0.5, 0.5]]))

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from trispline.spline.bernstein import basis, basis_gradient_bary, basis_hessian_bary
+from trispline.spline.util.memory import require_memory
 from trispline.spline.index import NCTRL, lattice, lattice_triangles
 from trispline.spline.patches import edge_samples
 
@@ -100,6 +101,9 @@ def sample_surface(surface: "SplineSurface", resolution: int = 4, *, curvature: 
     if faces is not None:
         ctrl = ctrl[ids]
     nf = ctrl.shape[0]
+    n = (r + 1) * (r + 2) // 2
+    require_memory(nf * n * (8 if curvature else 6) * 8 + nf * r * r * 24,
+                   f"sampling {nf} patches at resolution {r} ({nf * n} points)", "use a lower --resolution")
     bary = lattice(r) / r
     n = bary.shape[0]
     stack = _lattice_basis(r) if curvature else _lattice_basis(r)[: 3 * n]
