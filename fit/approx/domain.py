@@ -60,7 +60,8 @@ from .cdt import constrained, hole_seeds, loop_segments, quality_mesh
 from .locate import ClampedLocator, Located
 from .quality import REPAIR_ROUNDS, better_vertices, face_angles
 
-__all__ = ["CoarseDomain", "DomainStats", "coarse_domain", "insert", "ADAPT", "DEFAULT_FRACTION"]
+__all__ = ["CoarseDomain", "DomainStats", "coarse_domain", "insert", "separation", "ADAPT", "DEFAULT_FRACTION",
+           "MIN_SEPARATION"]
 
 #: Default vertex budget as a fraction of the scan's vertices.
 DEFAULT_FRACTION = 0.02
@@ -436,6 +437,18 @@ def _trim(uv: np.ndarray, interior: np.ndarray, excess: int, sizing: _Sizing, la
     return np.sort(interior[np.argsort(d, kind="stable")[excess:]])
 
 
+def separation(domain: CoarseDomain, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """How far uv ``points (m,)`` are from the coarse vertices and boundary, in face sizes (what
+    :func:`insert` tests): ``corner (m,)`` to the nearest vertex of the face a point falls in,
+    ``chord (m,)`` to the coarse boundary (0 outside the domain), and ``size (m,)``, that face's
+    size ``sqrt(2 area)`` in uv."""
+    hit = domain.locate(points)
+    size = np.sqrt(2.0 * domain.triangulation.areas[hit.face])
+    corner = np.linalg.norm(domain.uv[domain.faces[hit.face]] - points[:, None, :], axis=2).min(1) / size
+    chord = np.where(hit.clamped, 0.0, np.linalg.norm(domain.locator.project(points)[2] - points, axis=1) / size)
+    return corner, chord, size
+
+
 def insert(domain: CoarseDomain, new_vertices: np.ndarray, *, min_separation: float = MIN_SEPARATION
            ) -> CoarseDomain:
     """``domain`` with more scan vertices, re-triangulated (the refinement loop's step).
@@ -456,13 +469,10 @@ def insert(domain: CoarseDomain, new_vertices: np.ndarray, *, min_separation: fl
     on_loop, inner = ids[position[ids] >= 0], ids[position[ids] < 0]
     if inner.size:
         p = domain.scan_uv[inner]
-        hit = domain.locate(p)
-        size = np.sqrt(2.0 * domain.triangulation.areas[hit.face]) * min_separation
-        corner = np.linalg.norm(domain.uv[domain.faces[hit.face]] - p[:, None, :], axis=2).min(1)
-        chord = np.linalg.norm(domain.locator.project(p)[2] - p, axis=1)
-        to_loop = hit.clamped | (chord < size)
-        keep = ~to_loop & (corner >= size)
-        pairs = cKDTree(p).query_pairs(float(np.median(size)), output_type="ndarray")
+        corner, chord, size = separation(domain, p)
+        to_loop = chord < min_separation
+        keep = ~to_loop & (corner >= min_separation)
+        pairs = cKDTree(p).query_pairs(float(np.median(size)) * min_separation, output_type="ndarray")
         if pairs.size:
             keep[pairs.max(1)] = False
         if to_loop.any():

@@ -21,46 +21,23 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from trispline.spline.errors import InputError
+from trispline.spline.polynomial import Polynomial, polynomial_control_net
 from trispline.spline.propagation import SplineSpace, build_space
 from trispline.spline.surface import SplineSurface
 from trispline.spline.tolerances import APPROX_CG_RTOL, APPROX_CONVERGED_GRAD_RTOL, APPROX_GN_ATOL, APPROX_GN_RTOL
 
 from ..solve import FactorSolver, SparseCholesky
-from ..weights import TERM_WEIGHTS, FitWeights
+from ..weights import FitWeights
 from .domain import CoarseDomain
 from .problem import CORNER_MODES, ApproxProblem, residual_function, robust_points, setup_problem
 
-__all__ = ["ApproxWeights", "CoarseFit", "fit_domain", "scan_parameters", "APPROX_WEIGHTS", "EXTRAPOLATION"]
+__all__ = ["CoarseFit", "fit_domain", "scan_parameters", "quadric_reference", "APPROX_WEIGHTS", "EXTRAPOLATION"]
 
-@dataclass(frozen=True)
-class ApproxWeights(FitWeights):
-    """:class:`~trispline.fit.weights.FitWeights` with the curvature variation; what the approximation uses.
-
-    Attributes
-    ----------
-    bend : thin-plate energy; variation : curvature variation (quadrics cost nothing); data : the
-        data term. The interpolation's ``tilt``, ``local`` and ``angle`` are not used (they pull
-        toward local fits of the coarse vertices' data alone).
-    """
-
-    bend: float = 0.0
-    tilt: float = 0.0
-    local: float = 0.0
-    data: float = 300.0
-    variation: float = 1.0
-
-    def __post_init__(self) -> None:
-        for name in TERM_WEIGHTS + ("variation",):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and v >= 0):
-                raise InputError(f"weight {name} must be finite and >= 0, got {v}")
-        if self.bend <= 0 and self.variation <= 0:
-            raise InputError("at least one of the bend and variation weights must be positive")
-
-
-#: Default weights of the approximation: curvature variation and data.
-APPROX_WEIGHTS = ApproxWeights()
+#: Default weights of the approximation: thin-plate (less the reference quadric) and data. The
+#: interpolation's tilt and local terms pull toward local fits of the coarse vertices' data alone.
+APPROX_WEIGHTS = FitWeights(bend=1.0, tilt=0.0, local=0.0, data=10.0, angle=0.0)
+#: Monomial exponents of the reference quadric.
+QUADRIC_POWERS = np.array([(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)])
 #: The robust Gauss--Newton steps' linear solve (:class:`~trispline.fit.solve.FactorSolver`): ``"pcg"``,
 #: CG on the exact Gauss--Newton matrix preconditioned by the reweighted factor, or ``"direct"``, the
 #: factor alone (an inexact Gauss--Newton step; a quarter less to compile, more steps).
@@ -77,7 +54,7 @@ class CoarseFit:
     ----------
     surface : SplineSurface over ``(dom.uv, dom.faces)``
     free : (n_free, 3) the free points; space : SplineSpace
-    energies : dict term -> energy (``bend``, ``variation``, ``data``; weights included, data units)
+    energies : dict term -> energy (``bend``, ``data``; weights included, data units)
     iterations : Gauss--Newton steps (0: the plain loss, solved directly)
     converged : bool
     n_unknowns : free points solved for
@@ -105,9 +82,21 @@ def scan_parameters(dom: CoarseDomain) -> tuple[np.ndarray, np.ndarray]:
     return face, bary
 
 
+def quadric_reference(dom: CoarseDomain, V: np.ndarray) -> Polynomial:
+    """The scan's best-fit quadric over uv, ``(u, v) -> (3,)``: least squares on the scan analysis's
+    denoised vertices (each on its cell's robust quadric), so outliers barely move it."""
+    uv = dom.scan_uv
+    centre = 0.5 * (uv.min(0) + uv.max(0))
+    x = uv - centre
+    m = x[:, :1] ** QUADRIC_POWERS[:, 0] * x[:, 1:] ** QUADRIC_POWERS[:, 1]  # (n, 6)
+    coeffs = np.linalg.lstsq(m, dom.analysis.smooth, rcond=None)[0]
+    return Polynomial(powers=QUADRIC_POWERS, coeffs=coeffs, centre=centre)
+
+
 def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX_WEIGHTS, loss: str = "huber",
-               scale: float | np.ndarray | None = None, corners: str = "data", located: tuple[np.ndarray, np.ndarray] | None = None,
-               point_weight: np.ndarray | None = None, gauss_newton: bool = True,
+               scale: float | np.ndarray | None = None, corners: str = "data",
+               located: tuple[np.ndarray, np.ndarray] | None = None, point_weight: np.ndarray | None = None,
+               gauss_newton: bool = True, reference: Polynomial | None = None,
                solver: optx.AbstractLeastSquaresSolver | None = None, max_steps: int = 50) -> CoarseFit:
     """Fit the spline over ``dom`` to every scan vertex ``V (n, 3)``.
 
@@ -122,6 +111,7 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
         an earlier fit): their solution starts Gauss--Newton and their factor preconditions it
     gauss_newton : False: stop at that reweighted least-squares solution (one IRLS step, the
         refinement rounds' cheap fit); True: the robust loss's minimum
+    reference : the bend term's reference surface over uv (default :func:`quadric_reference`)
     solver : an optimistix least-squares solver for the robust loss (default Gauss--Newton,
         factor-preconditioned CG); max_steps : its step cap
     """
@@ -135,7 +125,9 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
     space = build_space(dom.triangulation)
     points = robust_points(face, bary, (V - centre) / size, loss, (size if scale is None else np.asarray(scale)) / size)
     corner_xyz = (V[dom.vertices] - centre) / size if corners == "data" else None
-    prob = setup_problem(space, points, corner_xyz, weights, loss, point_weight)
+    ref = quadric_reference(dom, V) if reference is None else reference
+    ref_net = (polynomial_control_net(dom.uv, dom.faces, ref) - centre) / size
+    prob = setup_problem(space, points, corner_xyz, weights, loss, ref_net, point_weight)
     factor = SparseCholesky(prob.H)
     x, steps, ok = _solve(prob, factor, solver, max_steps, gauss_newton)
     free = np.zeros((space.n_free, 3))

@@ -4,17 +4,17 @@
     res.surface.save("scan.npz")                                # with the deviation and settings as extras
     res.stats["deviation"], res.stats["met"], res.vertices      # inliers' deviation, tolerance met, scan ids
 
-Pipeline: parameterize the scan (on a lightly smoothed copy, :data:`PARAM_SMOOTHING`
+Pipeline: parameterize the scan (as :func:`_smoothed` sees it: spikes removed, a few
 umbrella steps, so that scanner spikes do not fold the map) -> a coarse domain on a
 subset of the scan's vertices (:func:`~.domain.coarse_domain`) -> rounds of fit
 (:func:`~.fit.fit_domain`), true deviation and refinement (:mod:`.refine`) until the
 inliers are within the tolerance or the budget is spent -> with a robust loss, the
-final robust fit by optimistix Gauss--Newton. The rounds fit a robust loss by one
-reweighted least-squares step each (weights from the previous round's residuals), so
-the vertex count can change every round without compiling anything; the final fit
-converges the robust loss itself, preconditioned by the last reweighted factor. The
-state returned is the one of smallest maximum inlier deviation (refinement never makes
-it worse).
+final robust fit by optimistix Gauss--Newton. The rounds fit a robust loss by a plain
+and one reweighted least-squares solve each (weights afresh from the round's own plain
+fit), so the vertex count can change every round without compiling anything; the final
+fit converges the robust loss itself, preconditioned by the reweighted factor. The
+refinement keeps the round of smallest maximum inlier deviation (it never makes that
+worse); the final fit replaces it unless it would break a tolerance met (or do worse).
 """
 from __future__ import annotations
 
@@ -64,9 +64,11 @@ IRLS_STEPS = 1
 
 #: Uniform-Laplacian steps on the interior vertices before parameterizing (boundary fixed).
 PARAM_SMOOTHING = 3
-#: A boundary vertex this many median edge lengths off its neighbours' midpoint is a spike (the
-#: parameterization moves it there; a corner of the outline is within one).
-BOUNDARY_SPIKE = 3.0
+#: A vertex this many median edge lengths off its neighbours' mean is a spike (the parameterization
+#: moves it there; a corner of the outline is within one).
+SPIKE_EDGES = 3.0
+#: Rounds of spike removal.
+SPIKE_ROUNDS = 4
 #: The robust loss's scale is at least this times the diagonal (noise-free data).
 MIN_SCALE = 1e-9
 
@@ -150,9 +152,10 @@ def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corn
 
 
 def _smoothed(V: np.ndarray, F: np.ndarray, steps: int = PARAM_SMOOTHING) -> np.ndarray:
-    """The scan ``V (n, 3)`` as the parameterization sees it: boundary spikes (farther than
-    :data:`BOUNDARY_SPIKE` median edge lengths from their two boundary neighbours' midpoint) moved
-    there, then ``steps`` uniform-Laplacian steps of the interior vertices (boundary fixed)."""
+    """The scan ``V (n, 3)`` as the parameterization sees it: spikes (farther than :data:`SPIKE_EDGES`
+    median edge lengths from the mean of their neighbours, for an outline vertex its two outline
+    neighbours, and farther than any neighbour) moved there, a few rounds, then ``steps``
+    uniform-Laplacian steps of the interior vertices."""
     n = V.shape[0]
     key = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
     edge, count = np.unique(key[:, 0] * n + key[:, 1], return_counts=True)
@@ -162,13 +165,18 @@ def _smoothed(V: np.ndarray, F: np.ndarray, steps: int = PARAM_SMOOTHING) -> np.
     bnd[np.r_[a[on], b[on]]] = True
     adjacency = lambda sel: sp.csr_matrix((np.ones(2 * int(sel.sum())), (np.r_[a[sel], b[sel]], np.r_[b[sel], a[sel]])),
                                           shape=(n, n))  # noqa: E731
-    X = V.copy()
-    mid = (adjacency(on) @ X) / 2.0
-    h = float(np.median(np.linalg.norm(V[a] - V[b], axis=1)))
-    spike = bnd & (np.linalg.norm(X - mid, axis=1) > BOUNDARY_SPIKE * h)
-    X[spike] = mid[spike]
     A = adjacency(np.ones(edge.size, bool))
     deg = np.maximum(np.asarray(A.sum(1)).ravel(), 1.0)[:, None]
+    B = adjacency(on)
+    X = V.copy()
+    h = float(np.median(np.linalg.norm(V[a] - V[b], axis=1)))
+    for _ in range(SPIKE_ROUNDS):  # a spike's neighbours are judged again once it is gone
+        mid = np.where(bnd[:, None], (B @ X) / 2.0, (A @ X) / deg)
+        off = np.linalg.norm(X - mid, axis=1)
+        spike = (off > SPIKE_EDGES * h) & (off >= np.asarray(A.multiply(off[None, :]).max(axis=1).todense()).ravel())
+        if not spike.any():
+            break
+        X[spike] = mid[spike]
     for _ in range(steps):
         X = np.where(bnd[:, None], X, (A @ X) / deg)
     return X
@@ -177,9 +185,9 @@ def _smoothed(V: np.ndarray, F: np.ndarray, steps: int = PARAM_SMOOTHING) -> np.
 def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray, np.ndarray, Any]:
     """``(uv (n, 2), faces (m, 3) counter-clockwise, parameterization or None)``.
 
-    A folded LSCM map is not repaired (on a large noisy scan the repair can take minutes):
-    the harmonic map of the same smoothed scan replaces it (its repair, when needed, is the
-    fast Tutte embedding).
+    The scan is parameterized as :func:`_smoothed` sees it. A folded LSCM map is not repaired
+    (on a large noisy scan the repair can take minutes and distorts the whole map): the
+    harmonic map of the same smoothed scan replaces it.
     """
     from trispline.param import MeshError, parameterize, validate_mesh
 
@@ -188,14 +196,11 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray
         validate_mesh(V, F)
         faces = F[:, [0, 2, 1]] if (signed_areas(uv, F) < 0).all() else F
         return uv, faces, None
-    if param == "uv":
-        p = parameterize(V, F, method="uv")
-        return p.uv, p.faces, p
-    X = _smoothed(V, F)
+    X = V if param == "uv" else _smoothed(V, F)
     try:
         p = parameterize(X, F, method=param, repair=param != "lscm")
     except MeshError as exc:
-        if "folded" not in getattr(exc, "kinds", ()):
+        if "folded" not in exc.kinds:
             raise
         p = parameterize(X, F, method="harmonic")
         p.messages.append(f"the lscm map folded; the harmonic map is used instead ({str(exc).splitlines()[0]})")
@@ -370,7 +375,8 @@ def _refine(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None
 
 
 def _final(V: np.ndarray, best: Round, opt: _Options, scale: float | None, stage: Callable) -> Round:
-    """With a robust loss, its minimum by Gauss--Newton on the best round's domain (kept unless worse)."""
+    """With a robust loss, its minimum by Gauss--Newton on the best round's domain; with a tolerance it
+    replaces the best round only if it meets the tolerance too or does not raise the maximum deviation."""
     if scale is None:
         stage("final")
         return best
@@ -381,8 +387,9 @@ def _final(V: np.ndarray, best: Round, opt: _Options, scale: float | None, stage
                      located=located, point_weight=pw, gauss_newton=True)
     state = measure(best.dom, V, fit, located, True, seconds=time.perf_counter() - t0)
     stage("final")
-    within = opt.tolerance is not None and state.max_deviation <= opt.tolerance
-    return state if (state.max_deviation <= best.max_deviation or within) else best
+    # the robust minimum, unless it would break a tolerance the reweighted fit met (or do worse)
+    keep = opt.tolerance is None or state.max_deviation <= max(opt.tolerance, best.max_deviation)
+    return state if keep else best
 
 
 def _result(V: np.ndarray, state: Round, opt: _Options, scale: float | None, history: list[dict], stop: str,

@@ -2,18 +2,19 @@
 
 The coarse spline space ``P = M @ free`` lives on the coarse domain; its corner points
 either interpolate their scan vertices (``corners="data"``: fixed, ``P = c0 + M_u x``) or
-move like every other free point (``corners="fit"``: ``x`` is every free point). Terms
-(:mod:`trispline.fit.energy`): the fairness terms :data:`FAIRNESS` over the coarse uv
-domain (``bend``, the thin-plate energy, and ``variation``, the curvature variation whose
-null space holds the quadrics) and the data term over all scan points located in the
-coarse domain, with the plain loss or a robust one
+move like every other free point (``corners="fit"``: ``x`` is every free point). Two terms
+(:mod:`trispline.fit.energy`): ``bend``, the thin-plate energy over the coarse uv domain of
+the surface **less a reference** (the scan's best-fit quadric over uv,
+:func:`~.fit.quadric_reference`: so a quadric costs nothing and is reproduced exactly, and
+the energy does not pull a curved scan toward a plane), and the data term over all scan
+points located in the coarse domain, with the plain loss or a robust one
 (:data:`~trispline.fit.energy.terms.DATA_LOSSES`).
 
 The data term's per-point weight is ``n_coarse^2 / (A n_scan)`` (``A`` the uv area), so
 its energy density is ``error^2 / h^4`` with ``h^2 = A / n_coarse`` the uv area per coarse
-vertex, whatever the scan's density: against a fairness term (``error^2 / l^4`` for a wiggle
-of length ``l``; the curvature variation is weighted by patch area to match) the ratio of
-the weights sets the smoothing length as a fixed fraction of the coarse spacing.
+vertex, whatever the scan's density: against the thin-plate energy (``error^2 / l^4`` for
+a wiggle of length ``l``) the data weight ``w`` sets the smoothing length, about
+``h / w^(1/4)``, a fixed fraction of the coarse spacing.
 
 Shapes are padded to a few sizes (:func:`padded`): the unknowns, the control points and
 the patches, with inert entries (an identity row in ``H``, zero residuals), so a refit
@@ -32,7 +33,7 @@ from trispline.spline.index import NCTRL
 from trispline.spline.propagation import SplineSpace
 
 from .. import energy as en
-from ..energy import bend, variation
+from ..energy import bend
 from ..energy.data import DataPoints
 from ..energy.robust import RobustPoints
 from ..energy.terms import DATA_LOSSES
@@ -40,8 +41,6 @@ from ..weights import FitWeights
 
 __all__ = ["ApproxProblem", "setup_problem", "padded", "CORNER_MODES", "PAD_GROWTH"]
 
-#: The fairness terms of the approximation (their weights: ``bend``, ``variation``).
-FAIRNESS = (bend, variation)
 #: ``corners="data"``: corner points interpolate their scan vertices; ``"fit"``: they are fitted too.
 CORNER_MODES = ("data", "fit")
 #: Padded sizes grow by this factor (fewer compiles, at most this much more work).
@@ -69,7 +68,7 @@ class ApproxProblem:
     rhs : (kp, 3) its right-hand side; ``H^{-1} rhs`` is the plain loss's optimum
     unknowns : (k,) free ids of the unknowns (the first ``k`` of ``kp``)
     loss : the data loss (``"l2"``, ``"huber"``, ``"cauchy"``)
-    terms : the terms' host arrays, unpadded (``{"bend": ..., "data": ...}``), for :func:`energies`
+    terms : the terms' host arrays, unpadded (``bend``, ``data``, ``reference (f, 21, 3)``), for :meth:`energies`
     """
 
     args: dict
@@ -79,17 +78,18 @@ class ApproxProblem:
     loss: str
     terms: dict
 
-    def energies(self, ctrl: np.ndarray, size: float = 1.0) -> dict[str, float]:
-        """Energy of each term (data units) for patch control points ``ctrl (f, 21, 3)`` in normalised
-        coordinates (data scaled by ``1 / size``), on the host."""
-        modules = FAIRNESS + (DATA_LOSSES[self.loss],)
-        return {m.NAME: float(np.sum(m.residual(ctrl, None, self.terms[m.NAME]) ** 2)) * size**m.SCALE_EXPONENT
-                if m.NAME in self.terms else 0.0 for m in modules}
-
     @property
     def nonlinear(self) -> bool:
         """A robust loss: Gauss--Newton iterates."""
         return not DATA_LOSSES[self.loss].LINEAR
+
+    def energies(self, ctrl: np.ndarray, size: float = 1.0) -> dict[str, float]:
+        """Energy of each term (data units) for patch control points ``ctrl (f, 21, 3)`` in normalised
+        coordinates (data scaled by ``1 / size``), on the host."""
+        data = DATA_LOSSES[self.loss]
+        r_bend = bend.residual(ctrl - self.terms["reference"], None, self.terms["bend"])
+        return {"bend": float(np.sum(r_bend**2)) * size**bend.SCALE_EXPONENT,
+                "data": float(np.sum(data.residual(ctrl, None, self.terms["data"]) ** 2)) * size**data.SCALE_EXPONENT}
 
 
 def _context(space: SplineSpace, weights: FitWeights, points: DataPoints, n_scan: int) -> en.TermContext:
@@ -105,7 +105,7 @@ def _context(space: SplineSpace, weights: FitWeights, points: DataPoints, n_scan
 
 
 def setup_problem(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray | None, weights: FitWeights,
-                  loss: str, point_weight: np.ndarray | None = None) -> ApproxProblem:
+                  loss: str, reference: np.ndarray, point_weight: np.ndarray | None = None) -> ApproxProblem:
     """The problem for scan ``points`` located in ``space``'s domain (normalised coordinates).
 
     Parameters
@@ -115,6 +115,7 @@ def setup_problem(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray
     corner_xyz : (nv, 3) the corner points' fixed positions (``corners="data"``), or None (``"fit"``)
     weights : FitWeights (bend and data are used)
     loss : ``"l2"``, ``"huber"`` or ``"cauchy"`` (``points`` a RobustPoints for the robust ones)
+    reference : (f, 21, 3) the bend term's reference surface, per patch
     point_weight : (n,) weights of the points in ``H`` and ``rhs`` only (iteratively reweighted
         least squares: the robust loss's weights at an earlier fit); the residuals keep the loss
     """
@@ -129,17 +130,15 @@ def setup_problem(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray
     M_u = sp.csr_matrix(M[:, unknowns])
     c0 = np.zeros((space.n_points, 3)) if corner_xyz is None else np.asarray(M[:, space.corner_free] @ corner_xyz)
     ctx = _context(space, weights, points, points.face.size)
-    terms = {m.NAME: m.setup(ctx) for m in FAIRNESS if getattr(weights, m.NAME, 0.0) > 0}  # a zero weight: no term
-    terms["data"] = term.setup(ctx)
-    flat = np.asarray(space.point_index).ravel()
+    terms = {"bend": bend.setup(ctx), "data": term.setup(ctx), "reference": reference}
     parts = en.NormalParts.zeros(space.tri.n_faces, 0)
-    for m in FAIRNESS:
-        if m.NAME in terms:
-            m.add_normal(parts, terms[m.NAME])
+    bend.add_normal(parts, terms["bend"])
+    parts.patch_rhs += np.einsum("fij,fjc->fic", parts.blocks, reference)  # |D^2 (P - reference)|^2
     plain = dict(terms["data"])
     if point_weight is not None:
         plain["scale"] = plain["scale"] * np.sqrt(point_weight)
     DATA_LOSSES["l2"].add_normal(parts, plain)  # a robust term's linearisation at zero, reweighted
+    flat = np.asarray(space.point_index).ravel()
     H, rhs = en.normal_equations(M_u[flat], c0[flat], np.zeros(0, np.int64), parts)
     return _padded_problem(M_u, c0, space.point_index, terms, H, rhs, unknowns, loss)
 
@@ -156,23 +155,21 @@ def _padded_problem(M_u: sp.csr_matrix, c0: np.ndarray, point_index: np.ndarray,
     c0_p[:n_points] = c0
     pidx = np.zeros((fp, NCTRL), np.int64)
     pidx[:nf] = point_index
+    W = np.zeros((fp,) + terms["bend"]["W"].shape[1:])
+    W[:nf] = terms["bend"]["W"]  # padded patches: zero weight
+    ref = np.zeros((fp, NCTRL, 3))
+    ref[:nf] = terms["reference"]
     Mc = M_u.tocoo()
     args = dict(M_rows=Mc.row.astype(np.int64), M_cols=Mc.col.astype(np.int64), M_vals=Mc.data, c0=c0_p,
-                point_index=pidx, frame_pos=np.zeros(0, np.int64), data=terms["data"])
-    for m in (m for m in FAIRNESS if m.NAME in terms):
-        a = dict(terms[m.NAME])
-        W = np.zeros((fp,) + a["W"].shape[1:])
-        W[:nf] = a["W"]  # padded patches: zero weight
-        args[m.NAME] = dict(a, W=W)
+                point_index=pidx, bend=dict(terms["bend"], W=W), reference=ref, data=terms["data"])
     return ApproxProblem(args=jax.tree_util.tree_map(jnp.asarray, args), H=Hp, rhs=rhs_p, unknowns=unknowns,
                          loss=loss, terms=terms)
 
 
 def _residuals(x: jax.Array, args: dict, term) -> dict[str, jax.Array]:
     ctrl = en.control_points(x, args)[args["point_index"]]
-    out = {m.NAME: m.residual(ctrl, None, args[m.NAME]) for m in FAIRNESS if m.NAME in args}
-    out["data"] = term.residual(ctrl, None, args["data"])
-    return out
+    return {"bend": bend.residual(ctrl - args["reference"], None, args["bend"]),
+            "data": term.residual(ctrl, None, args["data"])}
 
 
 def plain_residuals(x: jax.Array, args: dict) -> dict[str, jax.Array]:

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .deviation import Deviation, summary, surface_deviation
-from .domain import CoarseDomain
+from .domain import MIN_SEPARATION, CoarseDomain, separation
 from .fit import CoarseFit
 
 __all__ = ["Round", "measure", "pick_vertices", "REJECT_SIGMAS", "GROWTH"]
@@ -83,11 +83,12 @@ def measure(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit, located: tuple[np.
 def pick_vertices(state: Round, tolerance: float, room: int) -> np.ndarray:
     """Scan ids ``(<= room,)`` to insert: per coarse face holding an inlier over ``tolerance``, its best candidate.
 
-    A face counts when any inlier located in it is over the tolerance (a coarse vertex's own
-    point too: with ``corners="fit"`` a corner can miss its vertex). Its candidates are all its
+    A face counts when any inlier located in it is over the tolerance, and every face around a
+    coarse vertex whose own point is (with ``corners="fit"`` a corner can miss its vertex). Its candidates are all its
     scan points but coarse vertices, rejected points and interior spikes (a scan boundary vertex
     may be one: the leave-one-out residual of the scan analysis is large at a corner of the
-    outline even on exact data), scored ``(d / tolerance) * min(1, b /
+    outline even on exact data) and points :func:`~.domain.insert` would skip (too near a vertex
+    of their face), scored ``(d / tolerance) * min(1, b /
     INTERIOR_BARY + 0.25) / (1 + (roughness / ROUGHNESS_SCALE)^2)`` (``b`` the smallest
     barycentric coordinate, taken as ``INTERIOR_BARY`` for a scan boundary vertex: it moves the
     coarse boundary out to the scan's). Faces go in order of their largest deviation, at most
@@ -98,6 +99,10 @@ def pick_vertices(state: Round, tolerance: float, room: int) -> np.ndarray:
     over = ~state.rejected & (d > tolerance)
     worst = np.zeros(dom.stats.n_faces)
     np.maximum.at(worst, face[over], d[over])
+    local = np.full(d.size, -1, np.int64)
+    local[dom.vertices] = np.arange(dom.vertices.size)
+    star_face, star_corner = np.nonzero(np.isin(dom.faces, local[dom.vertices[over[dom.vertices]]]))
+    np.maximum.at(worst, star_face, d[dom.vertices[dom.faces[star_face, star_corner]]])  # a coarse vertex: its star
     limit = int(min(room, np.ceil((GROWTH - 1.0) * dom.stats.n_vertices)))
     on_loop = np.zeros(d.size, bool)
     on_loop[np.concatenate(dom.loops)] = True
@@ -105,6 +110,10 @@ def pick_vertices(state: Round, tolerance: float, room: int) -> np.ndarray:
     cand[dom.vertices] = False
     ids = np.flatnonzero(cand)
     if ids.size == 0 or limit <= 0:
+        return np.empty(0, np.int64)
+    corner, chord, _ = separation(dom, dom.scan_uv[ids])
+    ids = ids[(corner >= MIN_SEPARATION) | (chord < MIN_SEPARATION) | on_loop[ids]]  # what insert would skip: not
+    if ids.size == 0:
         return np.empty(0, np.int64)
     inside = np.minimum(1.0, np.clip(bary[ids].min(1), 0.0, None) / INTERIOR_BARY + 0.25)
     inside[on_loop[ids]] = 1.0  # a scan boundary vertex splits its chord: no sliver

@@ -20,7 +20,7 @@ import time
 from typing import Any, Callable
 
 from ..errors import UsageError
-from .common import EXIT_CHECK, EXIT_OK, PROG, UI, fmt, nonneg_float, positive_float, positive_int
+from .common import EXIT_CHECK, EXIT_OK, PROG, UI, fmt, positive_float, positive_int
 
 __all__ = ["add_options", "requested", "run", "NOISE_SIGMAS"]
 
@@ -28,8 +28,8 @@ __all__ = ["add_options", "requested", "run", "NOISE_SIGMAS"]
 NOISE_SIGMAS = 4.5
 #: The options that only make sense with an approximation.
 _MODE_OPTIONS = ("corners", "loss", "strict")
-#: ApproxWeights fields the approximation uses.
-_USED_WEIGHTS = ("bend", "variation", "data")
+#: FitWeights fields the approximation uses.
+_USED_WEIGHTS = ("bend", "data")
 
 
 def add_options(p: argparse.ArgumentParser) -> None:
@@ -49,9 +49,6 @@ def add_options(p: argparse.ArgumentParser) -> None:
                    help="data loss: huber (default), cauchy (ignores far outliers) or l2 (plain least squares)")
     g.add_argument("--strict", action="store_true", default=None,
                    help="exit 3 (and write nothing) when the tolerance is not met within the budget")
-    g.add_argument("--variation", dest="w_variation", type=nonneg_float, default=None, metavar="W",
-                   help="weight of the curvature variation (ApproxWeights.variation); the approximation also "
-                        "takes --bend and --data")
 
 
 def requested(args: argparse.Namespace) -> bool:
@@ -65,14 +62,13 @@ def requested(args: argparse.Namespace) -> bool:
 
 
 def _weights(args: argparse.Namespace, ui: UI, fields: tuple[tuple[str, type], ...]) -> Any:
-    """The approximation's default weights with the given ``--bend`` / ``--variation`` / ``--data`` flags."""
+    """The approximation's default weights with the given ``--bend`` / ``--data`` flags."""
     from ..approx import APPROX_WEIGHTS
 
-    names = [name for name, _ in fields] + ["variation"]
-    given = {name: getattr(args, f"w_{name}") for name in names if getattr(args, f"w_{name}", None) is not None}
+    given = {name: getattr(args, f"w_{name}") for name, _ in fields if getattr(args, f"w_{name}", None) is not None}
     ignored = sorted(set(given) - set(_USED_WEIGHTS))
     if ignored:
-        ui.warn(f"the approximation uses only the bend, variation and data weights; ignored: {', '.join(ignored)}")
+        ui.warn(f"the approximation uses only the bend and data weights; ignored: {', '.join(ignored)}")
     return dataclasses.replace(APPROX_WEIGHTS, **{k: v for k, v in given.items() if k in _USED_WEIGHTS})
 
 
