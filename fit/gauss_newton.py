@@ -27,7 +27,7 @@ import optimistix as optx
 from trispline.spline.tolerances import CONVERGED_GRAD_RTOL, GN_ATOL, GN_RTOL
 
 from . import energy as en
-from .solve import FactorSolver, SparseCholesky
+from .solve import FactorSolver, SparseCholesky, release_free_heap
 
 __all__ = ["QuadraticStep", "iterate"]
 
@@ -78,6 +78,7 @@ class QuadraticStep:
         self._thread.join()
         if self._error is not None:
             raise self._error
+        release_free_heap()  # what the compile and the factorisation's analysis freed
         prob = self.prob
         x, energies = self._compiled(jnp.zeros(prob.rhs.shape), prob.args, jnp.asarray(factor.handle, jnp.int64))
         x = np.asarray(x)

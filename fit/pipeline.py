@@ -35,7 +35,7 @@ from .energy.data import DataPoints, as_data_points
 from .errors import FitError
 from .gauss_newton import QuadraticStep, iterate
 from .progress import stage_reporter
-from .solve import SparseCholesky, check_memory, estimate_factor_bytes, require_x64
+from .solve import SparseCholesky, check_memory, estimate_factor_bytes, release_free_heap, require_x64
 from .stages import ASSEMBLE, BUILD, FACTOR, FINISH, PARAMETERIZE, SOLVE
 from .weights import FitWeights
 
@@ -166,6 +166,7 @@ def fit_surface(
         dp = DataPoints(dp.face, dp.bary, (dp.xyz - centre) / size)
     prob = en.setup_problem((V - centre) / size, space, weights, dp, report=stage_reporter(progress, ASSEMBLE))
     clock(ASSEMBLE)
+    release_free_heap()
     step = QuadraticStep(prob) if solver is None and not prob.nonlinear else None  # compiles meanwhile
     factor = SparseCholesky(prob.H_upper, upper=True, max_bytes="available",
                             report=stage_reporter(progress, FACTOR))

@@ -1,7 +1,8 @@
 """``bend``: the thin-plate energy ``int |F_uu|^2 + 2|F_uv|^2 + |F_vv|^2`` over the uv domain, exact per patch.
 
 Residual form: ``r = sqrt(w_q) [F_uu, sqrt(2) F_uv, F_vv] * sqrt(weight area)`` at the
-quadrature points (:mod:`.quadrature`), so ``|r|^2`` is the weighted energy exactly. The
+quadrature points (:mod:`.quadrature`; the 16-point rule compressed to the 10 rows the
+cubic second derivatives need), so ``|r|^2`` is the weighted energy exactly. The
 per-patch coefficients ``W (F, 6, 3)`` (:func:`bend_weights`) turn the pair partials into
 the scaled uv second derivatives; the Gram matrix ``r^T r = ctrl^T G ctrl`` comes from the
 same ``W``, so the residual and the normal matrix cannot disagree.
@@ -16,7 +17,7 @@ from trispline.spline.index import NCTRL
 from trispline.spline.util.parallel import Workers
 
 from .arrays import Array, array_module
-from .quadrature import PAIRS, pair_hessians, pair_moments
+from .quadrature import PAIRS, pair_hessian_rows, pair_moments
 
 if TYPE_CHECKING:
     from .context import TermContext
@@ -62,16 +63,24 @@ def thin_plate_gram(bary_grad: np.ndarray, areas: np.ndarray) -> np.ndarray:
 
 
 def setup(ctx: TermContext) -> dict[str, np.ndarray]:
-    """``D (Q, 6, 21)``, ``sqw (Q,)`` (quadrature tables) and ``W (n, 6, 3)`` of the patches."""
-    D, sqw = pair_hessians()
+    """``D (Q, 6, 21)``, ``sqw (Q,)`` (the 10-row quadrature tables) and ``W (n, 6, 3)`` of the patches."""
+    D, sqw = pair_hessian_rows()
     return dict(D=D, sqw=sqw, W=bend_weights(ctx.bary_gradients, ctx.areas, ctx.weights.bend))
 
 
 def residual(ctrl: Array, frames: Array, a: dict) -> Array:
-    """``(n, Q, 3, d)``: the scaled ``F_uu, sqrt2 F_uv, F_vv`` of patches ``ctrl (n, 21, d)``."""
+    """``(n, d, Q, 3)``: the scaled ``F_uu, sqrt2 F_uv, F_vv`` of patches ``ctrl (n, 21, d)`` at the Q rows.
+
+    Two matrix products in the arrays' own layouts: the pair derivatives of every patch
+    and coordinate, ``(n d, 21) @ (21, 6 Q)``, then per patch ``(d Q, 6) @ W (6, 3)``
+    (XLA then moves no large intermediate between layouts).
+    """
     xp = array_module(ctrl)
-    d2 = xp.einsum("qpi,fic->fqpc", a["D"], ctrl)
-    return xp.einsum("fqpc,fps,q->fqsc", d2, a["W"], a["sqw"])
+    n, _, d = ctrl.shape
+    D = a["D"] * a["sqw"][:, None, None]
+    Q = D.shape[0]
+    d2 = xp.swapaxes(ctrl, 1, 2).reshape(n * d, NCTRL) @ D.reshape(Q * 6, NCTRL).T  # (n d, Q 6)
+    return xp.matmul(d2.reshape(n, d * Q, 6), a["W"]).reshape(n, d, Q, 3)
 
 
 #: Patches per chunk of :func:`add_normal` (a temporary of chunk * 441 floats, 14 MB).

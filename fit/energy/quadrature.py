@@ -5,7 +5,8 @@ For a patch ``F = sum_i b_i B_i`` over a uv triangle with barycentric gradients
 ``D_ab`` the second barycentric partials. Second derivatives of a quintic have
 degree 3, so the degree-6 integrand ``|d^2 F|^2`` is integrated exactly by a
 16-point collapsed Gauss rule; the tables here are the rule and the six symmetric
-pair partials ``D_P B_i`` (``P = (a, b)``, ``a <= b``) at its points.
+pair partials ``D_P B_i`` (``P = (a, b)``, ``a <= b``) at its points, and the same
+compressed to the 10 rows that the cubics need.
 """
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ import numpy as np
 
 from trispline.spline.bernstein import basis_hessian_bary
 
-__all__ = ["PAIRS", "triangle_quadrature", "pair_hessians", "pair_moments"]
+__all__ = ["PAIRS", "triangle_quadrature", "pair_hessians", "pair_hessian_rows", "pair_moments"]
 
 #: The six symmetric barycentric second-derivative pairs (a <= b).
 PAIRS = np.array([(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)])
@@ -61,6 +62,25 @@ def pair_hessians() -> tuple[np.ndarray, np.ndarray]:
     D.setflags(write=False)
     sqw.setflags(write=False)
     return D, sqw
+
+
+@lru_cache(maxsize=None)
+def pair_hessian_rows() -> tuple[np.ndarray, np.ndarray]:
+    """The quadrature compressed to 10 rows: ``D (10, 6, 21)`` and unit weights ``(10,)``.
+
+    The second derivatives of a quintic are cubics, a 10-dimensional space, so the 16
+    sqrt-weighted rows of :func:`pair_hessians` have rank 10: rotated onto their row space
+    (SVD), 10 rows carry every inner product of the 16 exactly (to rounding). The bend
+    residual then has 10 rows per patch and coordinate instead of 16, for the same energy.
+    """
+    D, sqw = pair_hessians()
+    R = (sqw[:, None, None] * D).reshape(D.shape[0], -1)
+    U = np.linalg.svd(R, full_matrices=False)[0][:, :10]
+    rows = np.ascontiguousarray((U.T @ R).reshape(10, *D.shape[1:]))
+    ones = np.ones(10)
+    rows.setflags(write=False)
+    ones.setflags(write=False)
+    return rows, ones
 
 
 @lru_cache(maxsize=None)
