@@ -140,8 +140,8 @@ def _point_pypardiso_at_mkl() -> None:
     """Tell pypardiso where MKL's runtime library is (its documented ``PYPARDISO_MKL_RT``), once.
 
     Where ``ctypes`` cannot find ``mkl_rt`` (a wheel install), pypardiso walks every folder
-    under ``sys.prefix`` for it each time a solver is made: 2 s of a 100k-face fit. The
-    wheel puts it in ``sys.prefix/lib``.
+    under ``sys.prefix`` for it each time a solver is made, its import included: 1-2 s of a
+    fit. The wheel puts it in ``sys.prefix/lib``.
     """
     if os.environ.get("PYPARDISO_MKL_RT"):
         return
@@ -149,7 +149,7 @@ def _point_pypardiso_at_mkl() -> None:
     import glob
     import sys
 
-    found = ctypes.util.find_library("mkl_rt") or min(glob.glob(f"{sys.prefix}/lib/libmkl_rt*"), key=len, default=None)
+    found = min(glob.glob(f"{sys.prefix}/lib/libmkl_rt*"), key=len, default=None) or ctypes.util.find_library("mkl_rt")
     if found:
         os.environ["PYPARDISO_MKL_RT"] = found
 
@@ -253,9 +253,9 @@ class SparseCholesky:
 
     def _analyse_pardiso(self, U: sp.csr_matrix) -> None:
         """PARDISO phase 11 on the upper triangle ``U``; sets :attr:`estimate` from its report."""
+        _point_pypardiso_at_mkl()  # before the import: importing pypardiso makes a solver
         import pypardiso
 
-        _point_pypardiso_at_mkl()
         self._upper = U
         self._solver = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
         # PARDISO's defaults for the type (pypardiso leaves iparm[0] = 0, which makes PARDISO

@@ -248,23 +248,23 @@ class _KernelFits:
     coef: np.ndarray  # (nv, _NPOLY, d)
 
 
-def _kernel_matrix(out: np.ndarray, r3: np.ndarray, r2: np.ndarray, pair: np.ndarray, P0: np.ndarray,
-                   pad: np.ndarray, p: int, m: int) -> np.ndarray:
-    """Fill ``out (b, K + 10, K + 10)`` with the interpolation matrix of kernel ``r**p`` and ``m`` monomials.
+def _kernel_matrix(r3: np.ndarray, r2: np.ndarray, pair: np.ndarray, P0: np.ndarray, pad: np.ndarray, p: int,
+                   m: int) -> np.ndarray:
+    """``(b, K + m, K + m)``: the interpolation matrices of kernel ``r**p`` and the first ``m`` monomials.
 
-    ``[[phi, P], [P^T, 0]]`` with the unused monomial columns and the padded centres
-    (``pad (b, K)``) decoupled by a unit diagonal; ``r3 = r2**1.5`` and ``r2 (b, K, K)``.
+    ``[[phi, P], [P^T, 0]]`` with the padded centres (``pad (b, K)``) decoupled by a unit
+    diagonal; ``r3 = r2**1.5`` and ``r2 (b, K, K)``. Exactly ``K + m`` wide (36, 39, 43 for
+    the three kernels at ``K = 33``): a quarter fewer flops than one width for all.
     """
-    K = r2.shape[1]
+    b, K = r2.shape[:2]
+    out = np.empty((b, K + m, K + m))
     phi = r3 if p == 3 else (r3 * r2 if p == 5 else r3 * (r2 * r2))
     np.multiply(phi, pair, out=out[:, :K, :K])  # zero between padded centres
-    out[:, :K, K:K + m] = P0[..., :m]
-    out[:, :K, K + m:] = 0.0
-    out[:, K:, :K] = out[:, :K, K:].transpose(0, 2, 1)
+    out[:, :K, K:] = P0[..., :m]
+    out[:, K:, :K] = P0[..., :m].transpose(0, 2, 1)
     out[:, K:, K:] = 0.0
-    diag = np.arange(K + _NPOLY)
-    out[:, diag, diag] += np.concatenate([pad, np.broadcast_to(np.arange(_NPOLY) >= m, (pad.shape[0], _NPOLY))],
-                                         axis=1)
+    diag = np.arange(K)
+    out[:, diag, diag] += pad
     return out
 
 
@@ -288,15 +288,14 @@ def _fit_chunk(out: _KernelFits, lo: int, hi: int, X: np.ndarray, Y: np.ndarray,
     B = np.zeros((hi - lo, K + _NPOLY, d + nloo))
     B[:, :K, :d] = Y[lo:hi]
     B[:, np.arange(nloo), d + np.arange(nloo)] = 1.0
-    A = np.empty((hi - lo, K + _NPOLY, K + _NPOLY))
     for p, q in kernels:
         m = (q + 1) * (q + 2) // 2
         ok = npts[lo:hi] >= max(2 * m, 3)
         if not ok.any():
             continue
-        _kernel_matrix(A, r3, r2, pair, P0, ~vc, p, m)
+        A = _kernel_matrix(r3, r2, pair, P0, ~vc, p, m)
         sel = slice(None) if ok.all() else ok
-        S = _solve_batch(A[sel], B[sel])
+        S = _solve_batch(A[sel], B[sel, :K + m])
         c = S[:, :, :d]
         dg = S[:, np.arange(nloo), d + np.arange(nloo)]  # (A^-1)_kk
         vk = vc[sel][:, :nloo]
@@ -309,7 +308,8 @@ def _fit_chunk(out: _KernelFits, lo: int, hi: int, X: np.ndarray, Y: np.ndarray,
         out.best[t] = score[take]
         out.power[t] = p
         out.lam[t] = c[take, :K]
-        out.coef[t] = c[take, K:]
+        out.coef[t] = 0.0
+        out.coef[t, :m] = c[take, K:]
 
 
 def _vertex_gradient(X: np.ndarray, fits: _KernelFits, slope: np.ndarray, scale: np.ndarray) -> np.ndarray:

@@ -24,6 +24,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from trispline.spline.index import NCTRL
+from trispline.spline.util.memory import index_dtype
 from trispline.spline.util.parallel import Workers, concat
 
 from ..progress import Report, map_reporting, silent, span
@@ -58,11 +59,12 @@ class NormalParts:
                    np.zeros(n_frames), np.zeros((n_frames, d)))
 
 
-def _patch_upper(A: sp.csr_array, blocks: np.ndarray, lo: int, hi: int) -> tuple[np.ndarray, ...]:
+def _patch_upper(A: sp.csr_array, blocks: np.ndarray, lo: int, hi: int, idx: type) -> tuple[np.ndarray, ...]:
     """Upper-triangle entries ``(row, col, value)`` of ``sum_f A_f^T B_f A_f`` over patches ``lo:hi``.
 
     ``A_f`` (rows ``21 f .. 21 f + 20`` of ``A``) is made dense over the patch's own sorted
     unknowns ``U_f``; since ``U_f`` is sorted, local ``i <= j`` is global ``row <= col``.
+    Row and column ids come as ``idx`` (int32 where they fit: half the memory to move).
     """
     m = hi - lo
     ptr = A.indptr[NCTRL * lo:NCTRL * hi + 1]
@@ -78,7 +80,7 @@ def _patch_upper(A: sp.csr_array, blocks: np.ndarray, lo: int, hi: int) -> tuple
     first = np.cumsum(n_unknowns) - n_unknowns
     local = np.cumsum(new) - 1 - first[patch]  # index of each entry's unknown in U_f
     width = int(n_unknowns.max()) if m else 0
-    U = np.zeros((m, width), np.int64)
+    U = np.zeros((m, width), idx)
     U[patch[new], local[new]] = col[new]
     Ad = np.zeros((m, NCTRL, width))
     Ad[patch, slot, local] = val  # CSR rows hold no duplicate columns
@@ -92,14 +94,16 @@ def _upper_matrix(A: sp.csr_array, blocks: np.ndarray, frame_pos: np.ndarray, fr
                   report: Report | None = None) -> sp.csr_array:
     """``(k, k)`` CSR upper triangle (diagonal included) of ``A^T blkdiag(blocks) A + diag_frames``."""
     n, k = blocks.shape[0], A.shape[1]
+    idx = index_dtype(k)
     with Workers(n, parallel_min=2 * PATCH_CHUNK) as work:
-        parts = map_reporting(work, lambda lo, hi: _patch_upper(A, blocks, lo, hi), n, PATCH_CHUNK,
+        parts = map_reporting(work, lambda lo, hi: _patch_upper(A, blocks, lo, hi, idx), n, PATCH_CHUNK,
                               span(report, 0.0, 0.6))
-    rows = concat([p[0] for p in parts] + [np.asarray(frame_pos, np.int64)])
-    cols = concat([p[1] for p in parts] + [np.asarray(frame_pos, np.int64)])
+    frames = np.asarray(frame_pos).astype(idx)
+    rows = concat([p[0] for p in parts] + [frames], dtype=idx)
+    cols = concat([p[1] for p in parts] + [frames], dtype=idx)
     vals = concat([p[2] for p in parts] + [np.asarray(frame_weight, float)], dtype=float)
-    idx = np.int32 if k < 2**31 - 1 and rows.size < 2**31 - 1 else np.int64
-    U = sp.csr_array((vals, (rows.astype(idx), cols.astype(idx))), shape=(k, k))
+    del parts
+    U = sp.csr_array((vals, (rows, cols)), shape=(k, k))
     U.sum_duplicates()
     (report or silent)(1.0)
     return U
