@@ -8,9 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .util import gather as _gather
 from .index import local_index
-from .propagation.diamonds import diamond_coefficients, diamond_ids
+from .propagation.diamonds import diamond_ids, edge_coefficients
 from .topology import Triangulation
 
 
@@ -36,21 +35,19 @@ _XS = _table(lambda kp, kr, ks: [local_index({kr: i, ks: 5 - i}) for i in range(
 _EDGE = _table(lambda kp, kr, ks: [local_index({kr: j, ks: 5 - j}) for j in range(6)])
 
 
-def _edge_locals(tri: Triangulation, ie: np.ndarray) -> tuple[np.ndarray, ...]:
-    """For interior edges ``ie: (n,)`` with ``r = a, s = b``: ``a, b, f0, f1`` and the local
+def _edge_locals(ids: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
+    """From the :func:`diamond_ids` of interior edges (``r = a, s = b``): ``f0, f1`` and the local
     indices ``kp, kr0, ks0`` of ``p, r, s`` in ``f0`` and ``kq, kr1, ks1`` of ``q, r, s`` in ``f1``."""
-    a, b, f0, f1, k0, k1 = diamond_ids(tri, ie)  # in f0: a = k0+1, b = k0+2; in f1: b = k1+1, a = k1+2
-    return a, b, f0, f1, k0, (k0 + 1) % 3, (k0 + 2) % 3, k1, (k1 + 2) % 3, (k1 + 1) % 3
+    _, _, f0, f1, k0, k1 = ids  # in f0: a = k0+1, b = k0+2; in f1: b = k1+1, a = k1+2
+    return f0, f1, k0, (k0 + 1) % 3, (k0 + 2) % 3, k1, (k1 + 2) % 3, (k1 + 1) % 3
 
 
 def c1_vectors(tri: Triangulation, ctrl: np.ndarray) -> np.ndarray:
     """Raw C1 residual vectors ``(E_int, 5, d)`` (linear in ``ctrl``)."""
     ctrl = np.asarray(ctrl, dtype=np.float64)
-    ie = tri.interior_edges
-    a, b, f0, f1, kp, kr0, ks0, kq, kr1, ks1 = _edge_locals(tri, ie)
-    F, UV = tri.faces, tri.uv
-    p, q = _gather.at(F, f0, kp), _gather.at(F, f1, kq)
-    coef = diamond_coefficients(*(_gather.rows(UV, v) for v in (p, q, a, b)))
+    ids = diamond_ids(tri, tri.interior_edges)
+    f0, f1, kp, kr0, ks0, kq, kr1, ks1 = _edge_locals(ids)
+    coef = edge_coefficients(tri, ids, tri.uv)
     xq = ctrl[f1[:, None], _XP[kr1, ks1]]  # f_B(q r^i s^(4-i)): same label pattern with q in place of p
     xp = ctrl[f0[:, None], _XP[kr0, ks0]]
     xr = ctrl[f0[:, None], _XR[kr0, ks0]]
@@ -74,7 +71,7 @@ def continuity_residuals(tri: Triangulation, ctrl: np.ndarray) -> dict[str, np.n
     """
     ctrl = np.asarray(ctrl, dtype=np.float64)
     ie = tri.interior_edges
-    _, _, f0, f1, _, kr0, ks0, _, kr1, ks1 = _edge_locals(tri, ie)
+    f0, f1, _, kr0, ks0, _, kr1, ks1 = _edge_locals(diamond_ids(tri, ie))
     e0 = ctrl[f0[:, None], _EDGE[kr0, ks0]]
     e1 = ctrl[f1[:, None], _EDGE[kr1, ks1]]
     c0 = np.linalg.norm(e0 - e1, axis=-1).max(axis=1) if ie.size else np.zeros(0)
