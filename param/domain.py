@@ -85,18 +85,26 @@ def reverse_faces(faces: np.ndarray, ctrl: np.ndarray) -> tuple[np.ndarray, np.n
     return faces[:, [0, 2, 1]], ctrl[:, REVERSED_ORDER]
 
 
-def user_domain(p: "Parameterization", ctrl: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The fitted net ``ctrl (nf, 21, 3)`` over ``p.uv`` moved onto the user's domain.
+def user_domain(p: "Parameterization", ctrl: np.ndarray, uv: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The fitted net ``ctrl (nf, 21, 3)`` over the normalised domain moved onto the user's domain.
 
-    For ``method="uv"`` (unless a fold repair replaced the map) that is exactly the ``uv``
-    the caller gave (``V[:, :2]`` for a height field), with the faces listed backwards
-    where that domain is clockwise; for the other methods, which have no user frame, the
-    normalised domain itself. Returns ``(uv (nv, 2), faces (nf, 3), ctrl (nf, 21, 3))``,
+    ``uv (nv, 2)`` is the normalised domain the fit actually used (``space.tri.uv``: the spline
+    core may have snapped nearly singular vertices onto exact line crossings); None means
+    ``p.uv``. For ``method="uv"`` (unless a fold repair replaced the map) the result is exactly
+    the ``uv`` the caller gave (``V[:, :2]`` for a height field) at every vertex the fit did not
+    move, and the moved vertices' positions mapped back to the caller's frame; faces are listed
+    backwards where that domain is clockwise. For the other methods, which have no user frame,
+    it is the normalised domain itself. Returns ``(uv (nv, 2), faces (nf, 3), ctrl (nf, 21, 3))``,
     the same surface: the patch at barycentric coordinates ``b`` is unchanged.
     """
+    used = p.uv if uv is None else np.asarray(uv, np.float64)
     if p.method != "uv" or p.repaired is not None or p.source_uv is None:
-        return p.uv, p.faces, ctrl
+        return used, p.faces, ctrl
+    out = np.array(p.source_uv, np.float64)
+    moved = np.flatnonzero((used != p.uv).any(axis=1))
+    out[moved] = p.transform.to_output(used[moved])
+    faces = p.faces
     if p.transform.mirrored:
         faces, ctrl = reverse_faces(p.faces, ctrl)
-        return p.source_uv, faces, ctrl
-    return p.source_uv, p.faces, ctrl
+    return out, faces, ctrl

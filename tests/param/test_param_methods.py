@@ -152,6 +152,22 @@ def test_user_domain_evaluates_at_the_users_own_uv(mirror):
     np.testing.assert_allclose(user.evaluate_uv(inside), normalised.evaluate_uv(inside_n), rtol=0, atol=1e-6)
 
 
+def test_user_domain_maps_vertices_the_fit_moved_through_the_transform():
+    """The spline core may snap nearly singular vertices: those go back through the stored
+    normalisation, every other vertex stays exactly the user's."""
+    uv0, F = random_delaunay(80, seed=3)
+    xy = uv0 * [30.0, 20.0] + [1e3, -2e3]
+    V, F = lift(xy, F, height=lambda p: 0.01 * p[:, 0])
+    p = parameterize(V, F, "uv")
+    used = p.uv.copy()
+    used[[4, 9]] += 1e-13  # as a snap would
+    uv, faces, _ = user_domain(p, _net_over(p), used)
+    keep = np.setdiff1d(np.arange(len(xy)), [4, 9])
+    np.testing.assert_array_equal(uv[keep], xy[keep])
+    np.testing.assert_array_equal(uv[[4, 9]], p.transform.to_output(used[[4, 9]]))
+    assert not np.array_equal(uv[[4, 9]], xy[[4, 9]])
+
+
 def test_user_domain_keeps_the_normalised_domain_of_the_other_methods():
     V, F = bumpy_disk(200)
     p = parameterize(V, F, "lscm")
