@@ -21,6 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
+from trispline.spline.bernstein import basis
 from trispline.spline.polynomial import Polynomial, polynomial_control_net
 from trispline.spline.propagation import SplineSpace, build_space
 from trispline.spline.surface import SplineSurface
@@ -29,13 +30,19 @@ from trispline.spline.tolerances import APPROX_CG_RTOL, APPROX_CONVERGED_GRAD_RT
 from ..solve import FactorSolver, SparseCholesky
 from ..weights import FitWeights
 from .domain import CoarseDomain
-from .problem import CORNER_MODES, ApproxProblem, residual_function, robust_points, setup_problem
+from ..energy.data import DataPoints
+from .problem import CORNER_MODES, ApproxProblem, plain_system, residual_function, robust_points, setup_problem
 
-__all__ = ["CoarseFit", "fit_domain", "scan_parameters", "quadric_reference", "APPROX_WEIGHTS", "EXTRAPOLATION"]
+__all__ = ["CoarseFit", "fit_domain", "scan_parameters", "quadric_reference", "cross_validated_weight",
+           "APPROX_WEIGHTS", "DATA_WEIGHTS", "EXTRAPOLATION"]
 
 #: Default weights of the approximation: thin-plate (less the reference quadric) and data. The
 #: interpolation's tilt and local terms pull toward local fits of the coarse vertices' data alone.
 APPROX_WEIGHTS = FitWeights(bend=1.0, tilt=0.0, local=0.0, data=10.0, angle=0.0)
+#: Data weights :func:`cross_validated_weight` tries (the smoothing length is about ``h / w^(1/4)``).
+DATA_WEIGHTS = (3.0, 10.0, 30.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0)
+#: ... leaving out every this-many-th scan vertex.
+HOLDOUT = 10
 #: Monomial exponents of the reference quadric.
 QUADRIC_POWERS = np.array([(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)])
 #: The robust Gauss--Newton steps' linear solve (:class:`~trispline.fit.solve.FactorSolver`): ``"pcg"``,
@@ -93,6 +100,55 @@ def quadric_reference(dom: CoarseDomain, V: np.ndarray) -> Polynomial:
     return Polynomial(powers=QUADRIC_POWERS, coeffs=coeffs, centre=centre)
 
 
+def _normalisation(V: np.ndarray) -> tuple[np.ndarray, float]:
+    """``(centre (3,), size)``: the fit works on ``(V - centre) / size`` (optimistix's stopping tests are per element)."""
+    return 0.5 * (V.min(0) + V.max(0)), float(np.ptp(V, axis=0).max()) or 1.0
+
+
+def _reference_net(dom: CoarseDomain, V: np.ndarray, reference: Polynomial | None, centre: np.ndarray,
+                   size: float) -> np.ndarray:
+    """``(f, 21, 3)`` the bend term's reference per patch, normalised (default :func:`quadric_reference`)."""
+    ref = quadric_reference(dom, V) if reference is None else reference
+    return (polynomial_control_net(dom.uv, dom.faces, ref) - centre) / size
+
+
+def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX_WEIGHTS,
+                           corners: str = "data", candidates: tuple[float, ...] = DATA_WEIGHTS,
+                           holdout: int = HOLDOUT) -> tuple[float, dict[float, float]]:
+    """The data weight of :data:`DATA_WEIGHTS` whose plain fit best predicts held-out scan vertices.
+
+    Every ``holdout``-th scan vertex (not a coarse vertex) is left out; the others are fitted
+    once per candidate (one assembly of the split normal equations, one factorisation per
+    candidate) and the left-out ones scored by their residual at their own parameter, RMS over
+    all but the worst 1% (outliers). Noisy scans want a small weight (more smoothing), clean
+    ones with detail a large one. Returns ``(weight, {weight: score})``.
+    """
+    face, bary = scan_parameters(dom)
+    n = V.shape[0]
+    test = np.arange(n) % holdout == holdout // 2
+    test[dom.vertices] = False
+    centre, size = _normalisation(V)
+    Vn = (V - centre) / size
+    space = build_space(dom.triangulation)
+    corner_xyz = Vn[dom.vertices] if corners == "data" else None
+    ref_net = _reference_net(dom, V, None, centre, size)
+    train = DataPoints(face[~test], bary[~test], Vn[~test])
+    sys = plain_system(space, train, corner_xyz, weights, "l2", ref_net)
+    B = basis(bary[test])
+    scores = {}
+    for w in candidates:
+        factor = SparseCholesky(sys.H_bend + (w / weights.data) * sys.H_data)
+        free = np.zeros((space.n_free, 3))
+        if corner_xyz is not None:
+            free[space.corner_free] = corner_xyz
+        free[sys.unknowns] = factor.solve(sys.rhs_bend + (w / weights.data) * sys.rhs_data)
+        ctrl = space.control_points(free)
+        r = np.linalg.norm(np.einsum("nk,nkc->nc", B, ctrl[face[test]]) - Vn[test], axis=1)
+        kept = np.sort(r)[: max(1, int(np.ceil(0.99 * r.size)))]
+        scores[w] = float(np.sqrt(np.mean(kept**2))) * size
+    return min(scores, key=scores.get), scores
+
+
 def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX_WEIGHTS, loss: str = "huber",
                scale: float | np.ndarray | None = None, corners: str = "data",
                located: tuple[np.ndarray, np.ndarray] | None = None, point_weight: np.ndarray | None = None,
@@ -120,13 +176,11 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
     if loss != "l2" and scale is None:
         raise ValueError(f"the {loss} loss needs its scale (data units)")
     face, bary = scan_parameters(dom) if located is None else located
-    centre = 0.5 * (V.min(0) + V.max(0))
-    size = float(np.ptp(V, axis=0).max()) or 1.0
+    centre, size = _normalisation(V)
     space = build_space(dom.triangulation)
     points = robust_points(face, bary, (V - centre) / size, loss, (size if scale is None else np.asarray(scale)) / size)
     corner_xyz = (V[dom.vertices] - centre) / size if corners == "data" else None
-    ref = quadric_reference(dom, V) if reference is None else reference
-    ref_net = (polynomial_control_net(dom.uv, dom.faces, ref) - centre) / size
+    ref_net = _reference_net(dom, V, reference, centre, size)
     prob = setup_problem(space, points, corner_xyz, weights, loss, ref_net, point_weight)
     factor = SparseCholesky(prob.H)
     x, steps, ok = _solve(prob, factor, solver, max_steps, gauss_newton)

@@ -18,6 +18,7 @@ worse); the final fit replaces it unless it would break a tolerance met (or do w
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -25,12 +26,13 @@ from typing import Any, Callable
 import numpy as np
 import scipy.sparse as sp
 
-from trispline.param import DEFAULT_METHOD
+from trispline.param import DEFAULT_METHOD, face_areas_3d
 from trispline.spline.checks import as_array
 from trispline.spline.continuity import continuity_report
 from trispline.spline.errors import InputError
 from trispline.spline.index import CORNER
 from trispline.spline.surface import SplineSurface
+from trispline.spline.tolerances import MIN_RELATIVE_AREA_3D
 from trispline.spline.topology import signed_areas
 from trispline.spline.util.timer import StageTimer
 
@@ -40,7 +42,7 @@ from ..weights import FitWeights
 from .analysis import SPIKE_LEVELS
 from .deviation import Deviation, summary
 from .domain import DEFAULT_FRACTION, CoarseDomain, coarse_domain, insert
-from .fit import APPROX_WEIGHTS, fit_domain, scan_parameters
+from .fit import APPROX_WEIGHTS, cross_validated_weight, fit_domain, scan_parameters
 from .problem import CORNER_MODES
 from .refine import Round, measure, pick_vertices
 
@@ -50,7 +52,7 @@ __all__ = ["ApproxResult", "approximate_surface", "APPROX_STAGES", "LOSS_NAMES",
 #: Every data loss: the plain one and the robust ones.
 LOSS_NAMES = ("l2",) + LOSSES
 #: Stages reported to ``progress`` and timed in ``ApproxResult.timings``.
-APPROX_STAGES = ("parameterize", "domain", "fit", "deviation", "refine", "final")
+APPROX_STAGES = ("parameterize", "domain", "smoothing", "fit", "deviation", "refine", "final")
 #: Vertex budget with a tolerance and no ``n_vertices``: this fraction of the scan.
 DEFAULT_BUDGET_FRACTION = 0.10
 #: With a tolerance, the first coarse domain has this fraction of the scan (at most the budget).
@@ -85,7 +87,8 @@ class ApproxResult:
     deviation : Deviation of every scan vertex (closest points on the surface)
     rejected : (n,) bool, the points the robust loss rejected (outliers; the tolerance does not apply)
     stats : deviation (the inliers' :func:`~.deviation.summary`), deviation_all, rejected, vertices,
-        patches, tolerance, budget, met, stop (why the refinement stopped), rounds, noise, scale
+        patches, tolerance, budget, met, stop (why the refinement stopped), rounds, noise, scale,
+        data_weight and cross_validated (whether it was chosen so)
     energies : dict term -> energy (``bend``, ``data``; data units); iterations : Gauss--Newton steps
     converged : bool; history : one record per round (vertices, max, rms, rejected, seconds)
     timings : dict stage -> seconds; parameterization : the Parameterization (None with ``uv``)
@@ -125,6 +128,7 @@ class _Options:
     corners: str
     loss: str
     weights: FitWeights
+    auto: bool
 
 
 def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corners, loss, weights) -> _Options:
@@ -141,21 +145,22 @@ def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corn
         raise InputError(f"corners must be one of {', '.join(CORNER_MODES)}, got {corners!r}")
     if loss not in LOSS_NAMES:
         raise InputError(f"loss must be one of {', '.join(LOSS_NAMES)}, got {loss!r}")
-    if not isinstance(weights, FitWeights):
-        raise InputError(f"weights must be a FitWeights, got {type(weights).__name__}")
+    if weights is not None and not isinstance(weights, FitWeights):
+        raise InputError(f"weights must be a FitWeights or None, got {type(weights).__name__}")
     if n_vertices is not None:
         budget = int(n_vertices)
     else:
         budget = max(16, int(round((DEFAULT_FRACTION if tol is None else DEFAULT_BUDGET_FRACTION) * n)))
     return _Options(tolerance=tol, budget=min(budget, n), refine=tol is not None, corners=corners, loss=loss,
-                    weights=weights)
+                    weights=APPROX_WEIGHTS if weights is None else weights, auto=weights is None)
 
 
 def _smoothed(V: np.ndarray, F: np.ndarray, steps: int = PARAM_SMOOTHING) -> np.ndarray:
     """The scan ``V (n, 3)`` as the parameterization sees it: spikes (farther than :data:`SPIKE_EDGES`
     median edge lengths from the mean of their neighbours, for an outline vertex its two outline
-    neighbours, and farther than any neighbour) moved there, a few rounds, then ``steps``
-    uniform-Laplacian steps of the interior vertices."""
+    neighbours, and farther than any neighbour) moved there, a few rounds (not where that would
+    flatten a face, like an ear of the outline), then ``steps`` uniform-Laplacian steps of the
+    interior vertices."""
     n = V.shape[0]
     key = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
     edge, count = np.unique(key[:, 0] * n + key[:, 1], return_counts=True)
@@ -177,6 +182,9 @@ def _smoothed(V: np.ndarray, F: np.ndarray, steps: int = PARAM_SMOOTHING) -> np.
         if not spike.any():
             break
         X[spike] = mid[spike]
+    area = face_areas_3d(X, F)
+    flat = F[area <= MIN_RELATIVE_AREA_3D * area.mean()].ravel()  # e.g. an ear of the outline flattened
+    X[flat] = V[flat]
     for _ in range(steps):
         X = np.where(bnd[:, None], X, (A @ X) / deg)
     return X
@@ -229,7 +237,7 @@ def approximate_surface(
     n_vertices: int | None = None,
     corners: str = "data",
     loss: str = "huber",
-    weights: FitWeights = APPROX_WEIGHTS,
+    weights: FitWeights | None = None,
     uv: np.ndarray | None = None,
     param: str = DEFAULT_METHOD,
     progress: Callable[[str, dict], None] | None = None,
@@ -249,7 +257,9 @@ def approximate_surface(
         like every other free point: better on noisy scans, see docs/approximate.md)
     loss : ``"huber"``, ``"cauchy"`` (robust, scaled by the noise estimate) or ``"l2"``
     weights : FitWeights; ``bend`` and ``data`` are used (the data weight sets the smoothing
-        length, about the coarse spacing over ``data ** 0.25``)
+        length, about the coarse spacing over ``data ** 0.25``). None (default): :data:`~.fit.APPROX_WEIGHTS`
+        with the data weight chosen by cross-validation (:func:`~.fit.cross_validated_weight`) on the
+        first coarse domain, and again on the final one of a refinement
     uv : (n, 2), optional: the scan's domain (else ``param`` parameterizes it)
     progress : ``progress(stage, info)`` after each stage of :data:`APPROX_STAGES`; ``info`` has
         ``seconds`` and, after a round's deviation, that round's record
@@ -277,10 +287,18 @@ def approximate_surface(
     stage("parameterize")
     dom = _first_domain(V, faces, uv, opt)
     stage("domain")
+    if opt.auto:
+        opt = dataclasses.replace(opt, weights=_smoothing(dom, V, opt))
+        stage("smoothing")
     scale = None if opt.loss == "l2" else loss_scale(dom, opt.loss, diagonal)
     best, history, stop = _refine(V, dom, opt, scale, max_rounds, stage)
-    final = _final(V, best, opt, scale, stage)
-    return _result(V, final, opt, scale, history, stop, clock.timings, parameterization)
+    final, weights = _final(V, best, opt, scale, stage)
+    return _result(V, final, opt, weights, scale, history, stop, clock.timings, parameterization)
+
+
+def _smoothing(dom: CoarseDomain, V: np.ndarray, opt: _Options) -> FitWeights:
+    """:data:`~.fit.APPROX_WEIGHTS` with the cross-validated data weight of ``dom``."""
+    return dataclasses.replace(APPROX_WEIGHTS, data=cross_validated_weight(dom, V, corners=opt.corners)[0])
 
 
 def loss_scale(dom: CoarseDomain, loss: str, diagonal: float) -> np.ndarray:
@@ -374,25 +392,29 @@ def _refine(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None
     return best, history, stop
 
 
-def _final(V: np.ndarray, best: Round, opt: _Options, scale: float | None, stage: Callable) -> Round:
-    """With a robust loss, its minimum by Gauss--Newton on the best round's domain; with a tolerance it
-    replaces the best round only if it meets the tolerance too or does not raise the maximum deviation."""
-    if scale is None:
-        stage("final")
-        return best
+def _final(V: np.ndarray, best: Round, opt: _Options, scale: np.ndarray | None, stage: Callable
+           ) -> tuple[Round, FitWeights]:
+    """The final fit on the best round's domain: with a robust loss its minimum by Gauss--Newton; with
+    cross-validated weights and a refinement, the weight chosen again on this domain. With a
+    tolerance it replaces the best round only if it meets the tolerance too or does not raise the
+    maximum deviation. Returns the state kept and its weights."""
     t0 = time.perf_counter()
-    located = best.located
-    pw = _irls_weights(best.fit, located, V, scale, opt.loss)
-    fit = fit_domain(best.dom, V, weights=opt.weights, loss=opt.loss, scale=scale, corners=opt.corners,
-                     located=located, point_weight=pw, gauss_newton=True)
-    state = measure(best.dom, V, fit, located, True, seconds=time.perf_counter() - t0)
+    weights = _smoothing(best.dom, V, opt) if (opt.auto and opt.refine) else opt.weights
+    if scale is None and weights == opt.weights:
+        stage("final")
+        return best, opt.weights
+    pw = None if scale is None else _irls_weights(best.fit, best.located, V, scale, opt.loss)
+    fit = fit_domain(best.dom, V, weights=weights, loss=opt.loss, scale=scale, corners=opt.corners,
+                     located=best.located, point_weight=pw, gauss_newton=scale is not None)
+    state = measure(best.dom, V, fit, best.located, scale is not None, seconds=time.perf_counter() - t0)
     stage("final")
-    # the robust minimum, unless it would break a tolerance the reweighted fit met (or do worse)
+    # the final fit, unless it would break a tolerance the best round met (or do worse)
     keep = opt.tolerance is None or state.max_deviation <= max(opt.tolerance, best.max_deviation)
-    return state if keep else best
+    return (state, weights) if keep else (best, opt.weights)
 
 
-def _result(V: np.ndarray, state: Round, opt: _Options, scale: float | None, history: list[dict], stop: str,
+def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, scale: np.ndarray | None,
+            history: list[dict], stop: str,
             timings: dict, parameterization) -> ApproxResult:
     """Assemble the result: statistics, checks and the surface with its file extras."""
     dom, fit = state.dom, state.fit
@@ -405,15 +427,17 @@ def _result(V: np.ndarray, state: Round, opt: _Options, scale: float | None, his
                  rejected=int(state.rejected.sum()), vertices=int(dom.stats.n_vertices), patches=int(tri.n_faces),
                  tolerance=opt.tolerance, budget=opt.budget, met=bool(met), stop=stop, rounds=len(history),
                  noise=float(dom.stats.noise), scale=nominal, scan_vertices=int(V.shape[0]))
-    settings = dict(loss=opt.loss, corners=opt.corners, tolerance=opt.tolerance, budget=opt.budget, scale=nominal)
-    extras = surface_extras(dom, fit, V, stats, settings, opt.weights)
+    stats.update(data_weight=float(weights.data), cross_validated=opt.auto)
+    settings = dict(loss=opt.loss, corners=opt.corners, tolerance=opt.tolerance, budget=opt.budget, scale=nominal,
+                    data_weight=float(weights.data))
+    extras = surface_extras(dom, fit, V, stats, settings, weights)
     surface = SplineSurface(dom.uv, dom.faces, ctrl, extras=extras)
     return ApproxResult(
         surface=surface, domain=dom, vertices=dom.vertices, deviation=state.deviation, rejected=state.rejected,
         stats=stats, energies=fit.energies, iterations=fit.iterations, converged=fit.converged, history=history,
         timings=dict(timings), parameterization=parameterization, settings=settings, uv=dom.uv, faces=dom.faces,
         ctrl=ctrl, c1_residual=float(continuity_report(tri, ctrl)["c1_relative"]),
-        max_interpolation_error=float(np.abs(corners - V[dom.vertices][tri.faces]).max()), weights=opt.weights)
+        max_interpolation_error=float(np.abs(corners - V[dom.vertices][tri.faces]).max()), weights=weights)
 
 
 #: The deviation statistics stored in the surface file, in order (``approx_deviation``).

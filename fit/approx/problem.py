@@ -39,7 +39,7 @@ from ..energy.robust import RobustPoints
 from ..energy.terms import DATA_LOSSES
 from ..weights import FitWeights
 
-__all__ = ["ApproxProblem", "setup_problem", "padded", "CORNER_MODES", "PAD_GROWTH"]
+__all__ = ["ApproxProblem", "PlainSystem", "plain_system", "setup_problem", "padded", "CORNER_MODES", "PAD_GROWTH"]
 
 #: ``corners="data"``: corner points interpolate their scan vertices; ``"fit"``: they are fitted too.
 CORNER_MODES = ("data", "fit")
@@ -104,6 +104,57 @@ def _context(space: SplineSpace, weights: FitWeights, points: DataPoints, n_scan
         sample_weight=tri.n_vertices**2 / (area * max(n_scan, 1)))
 
 
+@dataclass
+class PlainSystem:
+    """The plain normal equations of one coarse domain, split by term (``H = H_bend + H_data``).
+
+    Attributes
+    ----------
+    M_u : (n_points, k) the unknowns' columns of ``M``; c0 : (n_points, 3) the fixed corners' part
+    unknowns : (k,) free ids; terms : the terms' host arrays (``bend``, ``data``, ``reference``)
+    H_bend, H_data : (k, k) sparse; rhs_bend, rhs_data : (k, 3)
+    """
+
+    M_u: sp.csr_matrix
+    c0: np.ndarray
+    unknowns: np.ndarray
+    terms: dict
+    H_bend: sp.csr_array
+    rhs_bend: np.ndarray
+    H_data: sp.csr_array
+    rhs_data: np.ndarray
+
+
+def plain_system(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray | None, weights: FitWeights,
+                 loss: str, reference: np.ndarray, point_weight: np.ndarray | None = None) -> PlainSystem:
+    """The split normal equations of :func:`setup_problem` (same parameters)."""
+    if corner_xyz is None:
+        unknowns = np.arange(space.n_free)
+    else:
+        fixed = np.zeros(space.n_free, bool)
+        fixed[space.corner_free] = True
+        unknowns = np.flatnonzero(~fixed)
+    M = sp.csc_matrix(space.M)
+    M_u = sp.csr_matrix(M[:, unknowns])
+    c0 = np.zeros((space.n_points, 3)) if corner_xyz is None else np.asarray(M[:, space.corner_free] @ corner_xyz)
+    ctx = _context(space, weights, points, points.face.size)
+    terms = {"bend": bend.setup(ctx), "data": DATA_LOSSES[loss].setup(ctx), "reference": reference}
+    A = M_u[np.asarray(space.point_index).ravel()]
+    c = c0[np.asarray(space.point_index).ravel()]
+    parts = en.NormalParts.zeros(space.tri.n_faces, 0)
+    bend.add_normal(parts, terms["bend"])
+    parts.patch_rhs += np.einsum("fij,fjc->fic", parts.blocks, reference)  # |D^2 (P - reference)|^2
+    H_bend, rhs_bend = en.normal_equations(A, c, np.zeros(0, np.int64), parts)
+    plain = dict(terms["data"])
+    if point_weight is not None:
+        plain["scale"] = plain["scale"] * np.sqrt(point_weight)
+    parts = en.NormalParts.zeros(space.tri.n_faces, 0)
+    DATA_LOSSES["l2"].add_normal(parts, plain)  # a robust term's linearisation at zero, reweighted
+    H_data, rhs_data = en.normal_equations(A, c, np.zeros(0, np.int64), parts)
+    return PlainSystem(M_u=M_u, c0=c0, unknowns=unknowns, terms=terms, H_bend=H_bend, rhs_bend=rhs_bend,
+                       H_data=H_data, rhs_data=rhs_data)
+
+
 def setup_problem(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray | None, weights: FitWeights,
                   loss: str, reference: np.ndarray, point_weight: np.ndarray | None = None) -> ApproxProblem:
     """The problem for scan ``points`` located in ``space``'s domain (normalised coordinates).
@@ -119,28 +170,9 @@ def setup_problem(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray
     point_weight : (n,) weights of the points in ``H`` and ``rhs`` only (iteratively reweighted
         least squares: the robust loss's weights at an earlier fit); the residuals keep the loss
     """
-    term = DATA_LOSSES[loss]
-    if corner_xyz is None:
-        unknowns = np.arange(space.n_free)
-    else:
-        fixed = np.zeros(space.n_free, bool)
-        fixed[space.corner_free] = True
-        unknowns = np.flatnonzero(~fixed)
-    M = sp.csc_matrix(space.M)
-    M_u = sp.csr_matrix(M[:, unknowns])
-    c0 = np.zeros((space.n_points, 3)) if corner_xyz is None else np.asarray(M[:, space.corner_free] @ corner_xyz)
-    ctx = _context(space, weights, points, points.face.size)
-    terms = {"bend": bend.setup(ctx), "data": term.setup(ctx), "reference": reference}
-    parts = en.NormalParts.zeros(space.tri.n_faces, 0)
-    bend.add_normal(parts, terms["bend"])
-    parts.patch_rhs += np.einsum("fij,fjc->fic", parts.blocks, reference)  # |D^2 (P - reference)|^2
-    plain = dict(terms["data"])
-    if point_weight is not None:
-        plain["scale"] = plain["scale"] * np.sqrt(point_weight)
-    DATA_LOSSES["l2"].add_normal(parts, plain)  # a robust term's linearisation at zero, reweighted
-    flat = np.asarray(space.point_index).ravel()
-    H, rhs = en.normal_equations(M_u[flat], c0[flat], np.zeros(0, np.int64), parts)
-    return _padded_problem(M_u, c0, space.point_index, terms, H, rhs, unknowns, loss)
+    s = plain_system(space, points, corner_xyz, weights, loss, reference, point_weight)
+    H = sp.csr_array(s.H_bend + s.H_data)
+    return _padded_problem(s.M_u, s.c0, space.point_index, s.terms, H, s.rhs_bend + s.rhs_data, s.unknowns, loss)
 
 
 def _padded_problem(M_u: sp.csr_matrix, c0: np.ndarray, point_index: np.ndarray, terms: dict, H: sp.csr_array,

@@ -62,14 +62,16 @@ def requested(args: argparse.Namespace) -> bool:
 
 
 def _weights(args: argparse.Namespace, ui: UI, fields: tuple[tuple[str, type], ...]) -> Any:
-    """The approximation's default weights with the given ``--bend`` / ``--data`` flags."""
+    """The approximation's default weights with the given ``--bend`` / ``--data`` flags, or None (no flag:
+    the data weight is cross-validated)."""
     from ..approx import APPROX_WEIGHTS
 
     given = {name: getattr(args, f"w_{name}") for name, _ in fields if getattr(args, f"w_{name}", None) is not None}
     ignored = sorted(set(given) - set(_USED_WEIGHTS))
     if ignored:
         ui.warn(f"the approximation uses only the bend and data weights; ignored: {', '.join(ignored)}")
-    return dataclasses.replace(APPROX_WEIGHTS, **{k: v for k, v in given.items() if k in _USED_WEIGHTS})
+    used = {k: v for k, v in given.items() if k in _USED_WEIGHTS}
+    return dataclasses.replace(APPROX_WEIGHTS, **used) if used else None  # None: cross-validated data weight
 
 
 class _Bar:
@@ -114,7 +116,7 @@ def _approximate(args: argparse.Namespace, ui: UI, mesh: Any, weights: Any) -> t
         bar.close()
 
 
-def _summary(args: argparse.Namespace, result: Any, mesh: Any, weights: Any, seconds: float) -> dict:
+def _summary(args: argparse.Namespace, result: Any, mesh: Any, seconds: float) -> dict:
     """The command's result (the JSON object; :func:`_text` prints it)."""
     st = result.stats
     return dict(
@@ -123,7 +125,8 @@ def _summary(args: argparse.Namespace, result: Any, mesh: Any, weights: Any, sec
         corners=result.settings["corners"], loss=result.settings["loss"], tolerance=st["tolerance"],
         budget=st["budget"], met=st["met"], stop=st["stop"], deviation=st["deviation"],
         deviation_all=st["deviation_all"], rejected=st["rejected"], noise=st["noise"], rounds=result.history,
-        weights=dataclasses.asdict(weights), energies=result.energies, iterations=int(result.iterations),
+        weights=dataclasses.asdict(result.weights), data_weight=st["data_weight"],
+        cross_validated=st["cross_validated"], energies=result.energies, iterations=int(result.iterations),
         converged=bool(result.converged), c1_residual=float(result.c1_residual),
         max_interpolation_error=float(result.max_interpolation_error), timings=dict(result.timings),
         seconds=seconds)
@@ -154,7 +157,7 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
     mesh = load(args, ui)
     weights = _weights(args, ui, fields)
     result, seconds = _approximate(args, ui, mesh, weights)
-    data = _summary(args, result, mesh, weights, seconds)
+    data = _summary(args, result, mesh, seconds)
     st = result.stats
     if st["tolerance"] is not None and st["tolerance"] < NOISE_SIGMAS * st["noise"]:
         ui.warn(f"the tolerance {st['tolerance']:.3g} is below {NOISE_SIGMAS} times the scan's noise estimate "
@@ -167,7 +170,7 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
             print(f"{PROG}: error: {what}; nothing written (--strict)", file=sys.stderr)
             return EXIT_CHECK
         ui.warn(f"{what}; raise --vertices or the tolerance")
-    surface = extras(result, weights, args.param, mesh.source, None)
+    surface = extras(result, result.weights, args.param, mesh.source, None)
     if mesh.kept is not None:  # coarse vertex -> vertex of the mesh file
         from trispline.spline.surface import SplineSurface
 

@@ -12,7 +12,7 @@ jax.config.update("jax_enable_x64", True)
 from trispline.fit.approx import (  # noqa: E402
     APPROX_WEIGHTS, approximate_surface, coarse_domain, fit_domain, scan_parameters,
 )
-from trispline.fit.approx.fit import EXTRAPOLATION, quadric_reference  # noqa: E402
+from trispline.fit.approx.fit import DATA_WEIGHTS, EXTRAPOLATION, cross_validated_weight, quadric_reference  # noqa: E402,E501
 from trispline.fit.approx.pipeline import loss_scale  # noqa: E402
 from trispline.fit.datasets.truth import grid_with_hole, truth_scan  # noqa: E402
 from trispline.fit.energy import robust  # noqa: E402
@@ -149,7 +149,7 @@ def test_loss_scale_widens_away_from_spikes():
 def test_fit_domain_plain_and_reweighted():
     s = truth_scan("bumps", 2000, sigma=1e-3, seed=6)
     res = approximate_surface(s.V, s.F, uv=s.params, n_vertices=50, loss="l2")
-    fit = fit_domain(res.domain, s.V, loss="l2")
+    fit = fit_domain(res.domain, s.V, loss="l2", weights=res.weights)
     np.testing.assert_allclose(fit.surface.ctrl, res.surface.ctrl, rtol=0, atol=1e-12)
     assert fit.iterations == 0 and set(fit.energies) == {"bend", "data"}
     with pytest.raises(ValueError, match="needs its scale"):
@@ -169,7 +169,7 @@ def test_fit_domain_plain_and_reweighted():
     (dict(n_vertices=10.5), "n_vertices must be an integer"),
     (dict(corners="free"), "corners must be one of data, fit, got 'free'"),
     (dict(loss="tukey"), "loss must be one of l2, huber, cauchy, got 'tukey'"),
-    (dict(weights=dict(bend=1.0)), "weights must be a FitWeights, got dict"),
+    (dict(weights=dict(bend=1.0)), "weights must be a FitWeights or None, got dict"),
 ])
 def test_bad_options_are_refused(kwargs, match):
     V, F, uv = height_field(PLANE, n=300)
@@ -210,3 +210,16 @@ def test_the_bend_reference_is_the_scans_quadric():
     dom = coarse_domain(s.V, s.F, s.params, n_vertices=40)
     q = quadric_reference(dom, s.V)
     assert np.sqrt(np.mean(s.distance_to_truth(q(s.params)) ** 2)) < 0.05 * s.diagonal  # outliers barely move it
+
+
+def test_cross_validation_smooths_noise_and_keeps_detail():
+    noisy = truth_scan("bumps", 4000, sigma=2e-3, seed=10)
+    clean = truth_scan("bumps", 4000, sigma=0.0, seed=10)
+    w = {}
+    for name, s in (("noisy", noisy), ("clean", clean)):
+        dom = coarse_domain(s.V, s.F, s.params, n_vertices=150)
+        w[name], scores = cross_validated_weight(dom, s.V, corners="fit")
+        assert set(scores) == set(DATA_WEIGHTS) and scores[w[name]] == min(scores.values())
+    assert w["noisy"] < w["clean"]  # more smoothing for noise
+    res = approximate_surface(noisy.V, noisy.F, uv=noisy.params, n_vertices=150, corners="fit", loss="l2")
+    assert res.stats["cross_validated"] and res.stats["data_weight"] == w["noisy"] == res.weights.data
