@@ -4,7 +4,7 @@
 
 The scan (trispline.fit.datasets.synthetic) is an open, bumpy, slightly noisy surface
 patch with a hole. The script fits an exactly C1 quintic spline that
-interpolates every scan vertex, writes the surface file (NPZ, DESIGN.md §6), a
+interpolates every scan vertex, writes the surface file (NPZ, docs/design.md §6), a
 tessellated PLY with analytic normals, the control net and a rendered picture to
 OUT_DIR (default: $TRISPLINE_EXAMPLE_OUT or ./example_output), and asserts that
 the surface interpolates the data and is C1 across every patch boundary.

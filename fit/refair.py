@@ -13,7 +13,7 @@ free point fixed, minimising the same fairness energy as :func:`fit_surface`
 Which free points move (``rings = k``): the region is the set of patches within
 ``k`` rings of ``v`` (``k = 1``: the patches around ``v``; ``k = 2``: those around
 its 1-ring neighbours, ...). The re-optimised free points are the non-corner free
-points whose whole support (the patches they control, DESIGN.md §3 'Local control')
+points whose whole support (the patches they control, docs/design.md §3 'Local control')
 lies in the region, so *nothing outside the region changes*. The energy is
 restricted to the patches those points control (all other terms are constant), and
 its targets (the local fits of the data, which move with the data) are recomputed

@@ -1,4 +1,4 @@
-"""Algebraic C0/C1 residuals of per-patch control points (DESIGN.md §2).
+"""Algebraic C0/C1 residuals of per-patch control points (docs/design.md §2).
 
 For faces ``A = (p, r, s)`` and ``B = (q, s, r)`` sharing edge ``(r, s)`` the
 patches join C1 iff the boundary control points agree and, for ``i = 0..4``,

@@ -22,7 +22,7 @@ equals a full rebuild ``M @ free`` (up to the summation order, which is the same
 scipy's, so in practice bit for bit), and an edit costs ``O(nnz of the column's rows)``
 -- bounded by the valences, independent of the mesh size.
 
-Which patches an edit touches (from the structure, DESIGN.md §3 'Local control'):
+Which patches an edit touches (from the structure, docs/design.md §3 'Local control'):
 
 ========================  ==============================================================
 free point                patches that change

@@ -1,4 +1,4 @@
-"""Index tables for quintic triangular Bézier patches (DESIGN.md §1).
+"""Index tables for quintic triangular Bézier patches (docs/design.md §1).
 
 A face ``(a, b, c)`` carries 21 control points ``b_ijk = f(a^i b^j c^k)``,
 ``i + j + k = 5``, stored with ``i`` descending, then ``j`` descending. Over the domain, point ``b_ijk``

@@ -1,4 +1,4 @@
-"""The surface file format, version 1 (DESIGN.md §6): NPZ and JSON.
+"""The surface file format, version 1 (docs/design.md §6): NPZ and JSON.
 
 Keys (both variants)::
 
@@ -7,7 +7,7 @@ Keys (both variants)::
     degree          5
     uv              (V, 2) float64
     faces           (F, 3) int64, counter-clockwise in uv
-    control_points  (F, 21, 3) float64, storage order of DESIGN.md §1
+    control_points  (F, 21, 3) float64, storage order of docs/design.md §1
 
 Any other key is optional: writers may add them, readers keep them as
 ``extras`` and never fail on a key they do not know. Files are written

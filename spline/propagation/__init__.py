@@ -1,4 +1,4 @@
-"""The propagation scheme as a sparse linear map ``P = M @ free`` (DESIGN.md §3).
+"""The propagation scheme as a sparse linear map ``P = M @ free`` (docs/design.md §3).
 
 Free variables (``nfree`` of them, each a point in R^3):
 

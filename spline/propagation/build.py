@@ -1,4 +1,4 @@
-"""``build_space``: the propagation map ``M`` as a short sequence of stages (DESIGN.md §3).
+"""``build_space``: the propagation map ``M`` as a short sequence of stages (docs/design.md §3).
 
     snap          nearly singular vertices moved onto the crossing of their two lines
     diamonds      coefficients of every interior edge's C1 relation; weak equations per vertex

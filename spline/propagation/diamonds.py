@@ -1,7 +1,7 @@
 """Stage 1 of the build: the diamonds of the interior edges and the corner-region frames.
 
 A diamond is the pair of faces ``A = (p, r, s)``, ``B = (q, s, r)`` of an interior
-edge ``(r, s)``; its C1 relation ``X_q = λ X_p + μ X_r + ν X_s`` (DESIGN.md §2) gives
+edge ``(r, s)``; its C1 relation ``X_q = λ X_p + μ X_r + ν X_s`` (docs/design.md §2) gives
 the ``i = 1`` equation at each end of the edge and the flips' ``i = 2`` condition.
 Every star point is affine in its vertex's frame (:func:`star_weights`).
 :func:`diamond_coefficients` and :func:`star_weights` take float64 or double-double

@@ -1,4 +1,4 @@
-"""Incremental local editing (DESIGN.md §3 'Local control', paper 5.3).
+"""Incremental local editing (docs/design.md §3 'Local control', paper 5.3).
 
 * exactness: any sequence of edits equals a full rebuild ``M @ free`` and stays C1;
 * locality: the patches an edit reports are derived here from the topology

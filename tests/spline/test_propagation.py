@@ -1,4 +1,4 @@
-"""The propagation map M spans exactly the C1 quintic spline space (DESIGN.md §3)."""
+"""The propagation map M spans exactly the C1 quintic spline space (docs/design.md §3)."""
 from __future__ import annotations
 
 import numpy as np
