@@ -58,6 +58,14 @@ AREA_DISTORTION_WARN = 1e3
 #: SLIM stops when an iteration lowers its energy by less than this fraction (measured:
 #: the distortion percentiles then change in their third digit).
 SLIM_RTOL = 1e-3
+#: uv smoothing (param/smooth.py): a local fit uses the highest degree whose normal matrix
+#: (coordinates in edge lengths, so O(1)) has a reciprocal condition number of at least this;
+#: lower degrees where a neighbourhood is too small or too flat to support it.
+SMOOTH_RCOND = 1e-8
+#: uv smoothing: a boundary loop turning by more than this (degrees, between consecutive 3D
+#: edges) has a corner there; boundary fits do not reach across it and the corner keeps its uv.
+#: Smooth outlines turn by a few degrees per edge at 200 vertices; rectangle corners by 90.
+SMOOTH_CORNER_DEGREES = 35.0
 
 # ------------------------------------------------------------------------------ fit
 #: Gauss--Newton tolerances of the fit (relative and absolute, data normalised to unit size).

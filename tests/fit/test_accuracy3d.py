@@ -1,0 +1,80 @@
+"""The 3D ground truth of issue 17 (fit/datasets/analytic.py) and a small run of benchmarks/bench_accuracy3d.py."""
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import jax
+import numpy as np
+import pytest
+
+jax.config.update("jax_enable_x64", True)
+
+from trispline.fit.datasets.analytic import ANALYTIC, analytic_mesh, analytic_surface  # noqa: E402
+from trispline.spline.topology import Triangulation, signed_areas  # noqa: E402
+
+BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_accuracy3d.py"
+
+
+@pytest.fixture(scope="module")
+def bench():
+    spec = importlib.util.spec_from_file_location("bench_accuracy3d", BENCH)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.mark.parametrize("name", list(ANALYTIC))
+def test_meshes_lie_on_their_surface_and_are_ccw(name):
+    m = analytic_mesh(name, 300, seed=1)
+    assert 250 <= len(m.V) <= 360
+    assert (signed_areas(m.params, m.F) > 0).all()
+    np.testing.assert_allclose(m.surface.derivatives(m.params).values, m.V, atol=1e-15)
+    assert Triangulation(m.params, m.F).n_faces == len(m.F)
+
+
+@pytest.mark.parametrize("name", list(ANALYTIC))
+def test_closest_points_are_exact(name):
+    """A point off the surface along the normal by d: closest parameter found again, distance |d|."""
+    s = analytic_surface(name)
+    m = analytic_mesh(name, 200, seed=2)
+    st = m.params[::7]
+    d = np.random.default_rng(3).uniform(-0.01, 0.01, len(st))
+    P = s.derivatives(st).values + d[:, None] * s.normals(st)
+    start = st + 0.01 * m.spacing  # a start O(h) off, as from a sample's barycentric parameter
+    np.testing.assert_allclose(s.closest_params(P, start), st, atol=1e-10)
+    np.testing.assert_allclose(s.distance(P, start), np.abs(d), atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["cap", "bump_hole", "helicoid"])
+def test_outline_distance_is_exact(name):
+    """Points on the true outline are at distance 0; lifted off it along the normal by d, at |d|."""
+    s = analytic_surface(name)
+    rng = np.random.default_rng(4)
+    for curve in s.domain.outline:
+        tau = rng.uniform(0.1, 0.9, 20) * (2 * np.pi if curve.kind == "circle" else 1.0)
+        c = curve.at(tau)[0]
+        on = s.derivatives(c).values
+        np.testing.assert_allclose(s.outline_distance(on, c), 0.0, atol=1e-12)
+        d = rng.uniform(0.001, 0.01, len(c))
+        off = on + d[:, None] * s.normals(c)
+        np.testing.assert_allclose(s.outline_distance(off, c + 1e-3), d, atol=1e-10)
+
+
+def test_unknown_surface_is_refused():
+    with pytest.raises(ValueError, match="unknown analytic surface 'sphere'"):
+        analytic_surface("sphere")
+
+
+def test_quick_bench_numbers_are_sane(bench):
+    r = bench.run_case("cap", 200, 2, "lscm")
+    t, true = r["trispline"], r["true uv"]
+    for method in bench.METHODS_3D:
+        assert all(np.isfinite(r[method][c]) and r[method][c] > 0 for c in bench.COLUMNS), method
+        assert r[method]["max"] >= r[method]["rms"]
+    assert t["rms"] < 1e-4 and t["rms"] <= 1.5 * true["rms"]  # measured 5.5e-5, 0.93x true uv
+    assert all(r[p]["rms"] >= 5 * t["rms"] for p in bench.PEERS)  # measured 12x, 14x, 67x
+    assert t["normal"] < r["PN"]["normal"]
+    # interpolating peers sample the mesh vertices exactly; Loop's limit surface is off them
+    assert r["loop"]["rms"] > r["butterfly"]["rms"]
+    assert set(bench.targets(r)) and r["info"]["nv"] == 203

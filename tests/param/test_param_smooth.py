@@ -1,0 +1,126 @@
+"""uv smoothing (param/smooth.py): exact on polynomial maps, boundary on the outline, fold-free."""
+from __future__ import annotations
+
+import importlib
+
+import numpy as np
+import pytest
+
+from trispline.param import parameterize, validate_mesh
+from trispline.param.distortion import fold_mask
+from trispline.param.smooth import fit_weights, smooth_uv
+from trispline.param.testing import bumpy_disk
+from trispline.spline.testing.domains import perturb, random_delaunay
+
+smooth_module = importlib.import_module("trispline.param.smooth")
+
+
+def _square(n: int = 300, seed: int = 0) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    """A planar unit square mesh ``V (nv, 3)`` (z = 0), ``F`` and its boundary loops."""
+    uv, F = random_delaunay(n, seed=seed)
+    V = np.column_stack([uv, np.zeros(len(uv))])
+    return V, F, validate_mesh(V, F).boundary_loops
+
+
+@pytest.mark.parametrize("dim, degree", [(1, 3), (2, 3), (2, 2), (2, 1)])
+def test_fit_weights_reproduce_polynomials_of_their_degree(dim, degree):
+    rng = np.random.default_rng(1)
+    x = rng.uniform(-2, 2, (5, 16, dim))
+    x[:, 0] = 0.0  # the vertex itself
+    w = rng.uniform(0.2, 1.0, (5, 16))
+    s = fit_weights(x, w, degree)
+    np.testing.assert_allclose(s.sum(1), 1.0, atol=1e-12)
+    for c in rng.normal(size=(3, 10)):  # value at 0 of a polynomial of the degree = its constant
+        y = c[0] + sum(c[1 + k] * x[..., k % dim] ** (1 + k // dim) for k in range(degree * dim))
+        np.testing.assert_allclose((s * y).sum(1), c[0], atol=1e-10)
+
+
+def test_fit_weights_fall_back_to_lower_degree_and_to_the_vertex():
+    x = np.zeros((2, 6, 2))
+    x[0, :, 0] = np.arange(6) - 2.0  # collinear: no 2D fit of any degree is well posed
+    x[0] = np.roll(x[0], -2, 0)  # the vertex (at 0) first
+    x[1, :3] = [[0, 0], [1, 0], [0, 1]]  # three points: degree 1 only (6 coefficients need 6 points)
+    x[1, 3:] = [[0.0, 0.0]] * 3
+    w = np.ones((2, 6))
+    w[1, 3:] = 0.0
+    s = fit_weights(x, w, 3)
+    np.testing.assert_array_equal(s[0], np.eye(6)[0])
+    np.testing.assert_allclose(s[1, :3], [1.0, 0.0, 0.0], atol=1e-12)  # the plane through 3 points at 0
+
+
+def test_an_affine_map_is_reproduced_exactly():
+    V, F, loops = _square()
+    A = np.array([[1.3, 0.4], [-0.2, 0.9]])
+    uv = V[:, :2] @ A.T + [0.5, -1.0]
+    new, info = smooth_uv(V, F, uv, loops)
+    np.testing.assert_allclose(new, uv, atol=1e-12)
+    assert info["moved_max"] < 1e-10 and not info["fallback"] and info["reverted"] == 0
+
+
+def test_a_rough_map_is_smoothed_boundary_kept_on_its_sides_and_corners_fixed():
+    V, F, loops = _square(600, seed=2)
+    rough = perturb(V[:, :2], F, 0.02, seed=3)  # interior jittered by 2% of an edge
+    bnd = loops[0]
+    # also jitter the boundary vertices along their sides (not the corners)
+    rng = np.random.default_rng(4)
+    on_x = np.isin(V[bnd, 1], [0.0, 1.0]) & ~np.isin(V[bnd, 0], [0.0, 1.0])
+    on_y = np.isin(V[bnd, 0], [0.0, 1.0]) & ~np.isin(V[bnd, 1], [0.0, 1.0])
+    rough[bnd[on_x], 0] += 0.002 * rng.uniform(-1, 1, on_x.sum())
+    rough[bnd[on_y], 1] += 0.002 * rng.uniform(-1, 1, on_y.sum())
+    new, info = smooth_uv(V, F, rough, loops)
+    assert not info["fallback"]
+    err_before = np.linalg.norm(rough - V[:, :2], axis=1)
+    err_after = np.linalg.norm(new - V[:, :2], axis=1)
+    # noise averaged over a 2-ring (about 19 points) by a cubic (10 coefficients): ~ sqrt(10/19)
+    assert np.sqrt(np.mean(err_after**2)) < 0.7 * np.sqrt(np.mean(err_before**2))
+    # the sides are straight in uv: their vertices stay exactly on them, the corners do not move
+    np.testing.assert_allclose(new[bnd[on_x], 1], V[bnd[on_x], 1], atol=1e-13)
+    np.testing.assert_allclose(new[bnd[on_y], 0], V[bnd[on_y], 0], atol=1e-13)
+    corners = bnd[np.isin(V[bnd, 0], [0.0, 1.0]) & np.isin(V[bnd, 1], [0.0, 1.0])]
+    assert corners.size == 4
+    np.testing.assert_array_equal(new[corners], rough[corners])
+    flipped, degenerate = fold_mask(new, F)
+    assert not (flipped | degenerate).any()
+
+
+def test_lscm_of_a_curved_disk_stays_fold_free_and_moves_little():
+    V, F = bumpy_disk(1500)
+    p = parameterize(V, F)
+    new, info = smooth_uv(V, F, p.uv, validate_mesh(V, F).boundary_loops)
+    flipped, degenerate = fold_mask(new, F)
+    assert not (flipped | degenerate).any() and not info["fallback"]
+    assert 0 < info["moved_max"] < 0.05  # a fraction of an edge: a smoothing, not a new map
+
+
+def _displace(vertex: int, by: float):
+    """An ``_interior`` that moves ``vertex`` by ``by`` (folding its faces), everything else as before."""
+    real = smooth_module._interior
+
+    def fake(V, uv, nbr, h, degree):
+        out = real(V, uv, nbr, h, degree)
+        out[nbr[:, 0] == vertex] += by
+        return out
+    return fake
+
+
+def test_a_fold_reverts_the_folded_faces_vertices(monkeypatch):
+    V, F, loops = _square(300, seed=5)
+    uv = perturb(V[:, :2], F, 0.02, seed=6)
+    v = int(np.argmin(np.linalg.norm(V[:, :2] - 0.5, axis=1)))
+    monkeypatch.setattr(smooth_module, "_interior", _displace(v, 0.3))
+    new, info = smooth_uv(V, F, uv, loops)
+    assert not info["fallback"] and info["reverted"] >= 1
+    np.testing.assert_array_equal(new[v], uv[v])
+    flipped, degenerate = fold_mask(new, F)
+    assert not (flipped | degenerate).any()
+
+
+def test_folds_left_after_the_rounds_return_the_map_unchanged(monkeypatch):
+    V, F, loops = _square(300, seed=5)
+    uv = perturb(V[:, :2], F, 0.02, seed=6)
+    v = int(np.argmin(np.linalg.norm(V[:, :2] - 0.5, axis=1)))
+    monkeypatch.setattr(smooth_module, "_interior", _displace(v, 0.3))
+    monkeypatch.setattr(smooth_module, "REVERT_ROUNDS", 0)
+    new, info = smooth_uv(V, F, uv, loops)
+    assert info["fallback"]
+    np.testing.assert_array_equal(new, uv)
