@@ -55,7 +55,11 @@ from pathlib import Path
 
 import numpy as np
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+from trispline.fit.datasets.cache import MESH_SUFFIXES, data_folders
+
+#: The real meshes: the first of the data folders (``../shared/data``, then the cache) that has any.
+DATA = next((d for d in data_folders() if d.is_dir() and any(p.suffix in MESH_SUFFIXES for p in d.iterdir())),
+            data_folders()[0])
 #: Meshes with at least this many faces get the small fraction.
 LARGE_FACES = 20_000
 FRACTION_LARGE, FRACTION_SMALL = 0.02, 0.05
@@ -87,7 +91,7 @@ def mesh_names() -> list[str]:
     """The mesh files of :data:`DATA`, sorted."""
     if not DATA.is_dir():
         return []
-    return sorted(p.name for p in DATA.iterdir() if p.suffix in (".obj", ".off", ".ply", ".stl"))
+    return sorted(p.name for p in DATA.iterdir() if p.suffix in MESH_SUFFIXES)
 
 
 def face_samples(V: np.ndarray, F: np.ndarray, r: int = SAMPLE_STEPS) -> np.ndarray:

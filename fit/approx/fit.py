@@ -59,7 +59,8 @@ class CoarseFit:
 
     Attributes
     ----------
-    surface : SplineSurface over ``(dom.uv, dom.faces)``
+    surface : SplineSurface over ``(space.tri.uv, dom.faces)`` (``dom.uv`` unless the spline core snapped
+        nearly singular vertices onto exact crossings: ``space.stats["snapped_vertices"]``)
     free : (n_free, 3) the free points; space : SplineSpace
     energies : dict term -> energy (``bend``, ``data``; weights included, data units)
     iterations : Gauss--Newton steps (0: the plain loss, solved directly)
@@ -191,7 +192,7 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
     free[prob.unknowns] = x[:k] * size + centre
     ctrl = space.control_points(free)
     energies = prob.energies((ctrl - centre) / size, size)
-    surface = SplineSurface(dom.uv, dom.faces, ctrl)
+    surface = SplineSurface(space.tri.uv, dom.faces, ctrl)  # the domain used: nearly singular vertices snapped
     return CoarseFit(surface=surface, free=free, space=space, energies=energies, iterations=steps, converged=ok,
                      n_unknowns=k)
 

@@ -91,9 +91,11 @@ class ApproxResult:
         data_weight and cross_validated (whether it was chosen so)
     energies : dict term -> energy (``bend``, ``data``; data units); iterations : Gauss--Newton steps
     converged : bool; history : one record per round (vertices, max, rms, rejected, seconds)
-    timings : dict stage -> seconds; parameterization : the Parameterization (None with ``uv``)
+    timings : dict stage -> seconds; parameterization : the Parameterization (``method="uv"`` with ``uv``)
     settings : the options, as stored in the surface file
-    uv, faces, ctrl : the coarse domain and the control points ``(f, 21, 3)``
+    uv, faces, ctrl : the surface's domain and control points ``(f, 21, 3)``: ``domain.uv`` (normalised)
+        with nearly singular vertices snapped (extras ``domain_max_move``, ``domain_max_relative_move``),
+        and with ``uv`` given (or ``param="uv"``) in the caller's own uv
     c1_residual : worst C1 residual (relative); max_interpolation_error : corners vs their scan vertices
     """
 
@@ -191,20 +193,21 @@ def _smoothed(V: np.ndarray, F: np.ndarray, steps: int = PARAM_SMOOTHING) -> np.
 
 
 def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray, np.ndarray, Any]:
-    """``(uv (n, 2), faces (m, 3) counter-clockwise, parameterization or None)``.
+    """``(uv (n, 2) normalised, faces (m, 3) counter-clockwise, parameterization)``.
 
-    The scan is parameterized as :func:`_smoothed` sees it. A folded LSCM map is not repaired
-    (on a large noisy scan the repair can take minutes and distorts the whole map): the
-    harmonic map of the same smoothed scan replaces it.
+    Given ``uv`` (or ``param="uv"``: ``V[:, :2]``) is normalised by ``parameterize(method="uv")``
+    and the surface goes back onto it at the end (:func:`_user_net`). Otherwise the scan is
+    parameterized as :func:`_smoothed` sees it. A folded LSCM map is not repaired (on a large
+    noisy scan the repair can take minutes and distorts the whole map): the harmonic map of the
+    same smoothed scan replaces it.
     """
-    from trispline.param import MeshError, parameterize, validate_mesh
+    from trispline.param import MeshError, parameterize
 
-    if uv is not None:
-        uv = as_array(uv, "uv", (V.shape[0], 2), finite=True)
-        validate_mesh(V, F)
-        faces = F[:, [0, 2, 1]] if (signed_areas(uv, F) < 0).all() else F
-        return uv, faces, None
-    X = V if param == "uv" else _smoothed(V, F)
+    if uv is not None or param == "uv":
+        uv = None if uv is None else as_array(uv, "uv", (V.shape[0], 2), finite=True)
+        p = parameterize(V, F, method="uv", uv=uv)
+        return p.uv, p.faces, p
+    X = _smoothed(V, F)
     try:
         p = parameterize(X, F, method=param, repair=param != "lscm")
     except MeshError as exc:
@@ -213,6 +216,18 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray
         p = parameterize(X, F, method="harmonic")
         p.messages.append(f"the lscm map folded; the harmonic map is used instead ({str(exc).splitlines()[0]})")
     return p.uv, p.faces, p
+
+
+def _user_net(p, dom: CoarseDomain, space, ctrl: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(uv (k, 2), faces (f, 3), ctrl (f, 21, 3))``: the fitted net on the domain the fit used
+    (``space.tri.uv``, snapped vertices moved), for ``method="uv"`` in the caller's own uv
+    (:func:`trispline.param.user_domain` on the coarse vertices' share of the parameterization)."""
+    from trispline.param import user_domain
+
+    if p.method != "uv" or p.source_uv is None:
+        return space.tri.uv, dom.faces, ctrl
+    coarse = dataclasses.replace(p, uv=dom.uv, faces=dom.faces, source_uv=p.source_uv[dom.vertices])
+    return user_domain(coarse, ctrl, space.tri.uv)
 
 
 def _first_domain(V: np.ndarray, F: np.ndarray, uv: np.ndarray, opt: _Options) -> CoarseDomain:
@@ -260,7 +275,7 @@ def approximate_surface(
         length, about the coarse spacing over ``data ** 0.25``). None (default): :data:`~.fit.APPROX_WEIGHTS`
         with the data weight chosen by cross-validation (:func:`~.fit.cross_validated_weight`) on the
         first coarse domain, and again on the final one of a refinement
-    uv : (n, 2), optional: the scan's domain (else ``param`` parameterizes it)
+    uv : (n, 2), optional: the scan's domain (else ``param`` parameterizes it); the surface comes out in it
     progress : ``progress(stage, info)`` after each stage of :data:`APPROX_STAGES`; ``info`` has
         ``seconds`` and, after a round's deviation, that round's record
     max_rounds : refinement rounds at most
@@ -419,7 +434,7 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
     """Assemble the result: statistics, checks and the surface with its file extras."""
     dom, fit = state.dom, state.fit
     ctrl = np.asarray(fit.surface.ctrl)
-    tri = dom.triangulation
+    tri = fit.space.tri
     corners = ctrl[np.arange(tri.n_faces)[:, None], CORNER[None, :]]
     met = opt.tolerance is not None and state.max_deviation <= opt.tolerance
     nominal = None if scale is None else float(np.min(scale))  # the spikes' scale
@@ -431,12 +446,16 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
     settings = dict(loss=opt.loss, corners=opt.corners, tolerance=opt.tolerance, budget=opt.budget, scale=nominal,
                     data_weight=float(weights.data))
     extras = surface_extras(dom, fit, V, stats, settings, weights)
-    surface = SplineSurface(dom.uv, dom.faces, ctrl, extras=extras)
+    if fit.space.stats["snapped_vertices"]:  # uv moved onto exact crossings (spline.propagation.snap): by how much
+        extras.update(domain_max_move=fit.space.stats["max_move"],
+                      domain_max_relative_move=fit.space.stats["max_relative_move"])
+    uv, faces, net = _user_net(parameterization, dom, fit.space, ctrl)
+    surface = SplineSurface(uv, faces, net, extras=extras)
     return ApproxResult(
         surface=surface, domain=dom, vertices=dom.vertices, deviation=state.deviation, rejected=state.rejected,
         stats=stats, energies=fit.energies, iterations=fit.iterations, converged=fit.converged, history=history,
-        timings=dict(timings), parameterization=parameterization, settings=settings, uv=dom.uv, faces=dom.faces,
-        ctrl=ctrl, c1_residual=float(continuity_report(tri, ctrl)["c1_relative"]),
+        timings=dict(timings), parameterization=parameterization, settings=settings, uv=uv, faces=faces,
+        ctrl=net, c1_residual=float(continuity_report(tri, ctrl)["c1_relative"]),
         max_interpolation_error=float(np.abs(corners - V[dom.vertices][tri.faces]).max()), weights=weights)
 
 

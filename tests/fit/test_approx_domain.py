@@ -7,6 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from trispline.fit.approx import ClampedLocator, analyse_scan, coarse_domain, face_angles, insert
+from trispline.fit.datasets.cache import MISSING_DATA, find_data
 from trispline.fit.datasets.truth import HOLE_CENTRE, PARAM_BOX, grid_with_hole, truth_scan
 from trispline.spline import Locator, Triangulation, build_space
 from trispline.spline.errors import InputError
@@ -221,16 +222,12 @@ def test_insert_skips_near_duplicates_and_moves_chords_out():
         check_domain(d2, scan.V, scan.F, scan.params, HOLE_CENTRE[None])
 
 
+@pytest.mark.skipif(find_data("beetle.off") is None, reason=f"beetle.off: {MISSING_DATA}")
 def test_real_scan_with_holes_and_lscm_map():
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[3] / "shared" / "data" / "beetle.off"
-    if not path.exists():
-        pytest.skip("no ../shared/data")
     from trispline.fit.io import read_mesh
     from trispline.param import parameterize
 
-    md = read_mesh(path)
+    md = read_mesh(find_data("beetle.off"))
     p = parameterize(md.V, md.F, method="lscm")
     dom = coarse_domain(md.V, p.faces, p.uv, n_vertices=int(0.02 * md.V.shape[0]))
     check_domain(dom, md.V, p.faces, p.uv)

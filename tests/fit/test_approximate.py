@@ -45,7 +45,7 @@ def test_polynomials_are_reproduced_exactly_at_any_budget(f, corners, loss, budg
     inside = ~res.domain.locate_scan().clamped
     assert res.deviation.distance[inside].max() <= 1e-9 * diag
     face, bary = scan_parameters(res.domain)
-    own = res.domain.locator.locator.bary_in(face, uv)
+    own = res.domain.locator.locator.bary_in(face, res.domain.scan_uv)  # the domain is normalised
     near = own.min(1) >= EXTRAPOLATION
     assert near.mean() > 0.99
     np.testing.assert_allclose(res.surface.evaluate(face[near], own[near]), V[near], rtol=0, atol=1e-9 * diag)
@@ -53,12 +53,29 @@ def test_polynomials_are_reproduced_exactly_at_any_budget(f, corners, loss, budg
     assert res.surface.continuity()["c1_relative"] <= 1e-9
 
 
+@pytest.mark.parametrize("mirror", [False, True])
+def test_the_surface_lives_in_the_users_uv(mirror):
+    """With ``uv`` given the fit works on its normalisation and the surface comes back onto the
+    caller's own coordinates (exactly, at every coarse vertex the spline core did not snap)."""
+    V, F, st = height_field(QUADRIC, n=800)
+    xy = st * [250.0, 40.0] + [6.1e5, 5.2e6] if not mirror else st[:, ::-1] * [40.0, 250.0] - [3e3, 1e2]
+    res = approximate_surface(V, F, uv=xy, n_vertices=40, loss="l2")
+    assert res.parameterization.transform.mirrored is mirror
+    np.testing.assert_array_equal(res.surface.uv, xy[res.vertices])
+    np.testing.assert_array_equal(res.uv, res.surface.uv)
+    inside = ~res.domain.locate_scan().clamped
+    diag = float(np.linalg.norm(V.max(0) - V.min(0)))
+    np.testing.assert_allclose(res.surface.evaluate_uv(xy[inside]), V[inside], rtol=0, atol=1e-8 * diag)
+    assert "domain_max_move" not in res.surface.extras  # nothing snapped on this domain
+
+
 def test_coarse_vertices_are_scan_vertices_and_corners_interpolate_them():
     s = truth_scan("bumps", 3000, sigma=1e-3, seed=3)
     res = approximate_surface(s.V, s.F, uv=s.params, n_vertices=80, loss="l2")
     k = res.vertices
     assert np.unique(k).size == k.size and 0 <= k.min() and k.max() < s.V.shape[0]
-    np.testing.assert_array_equal(res.domain.uv, s.params[k])
+    np.testing.assert_array_equal(res.domain.uv, res.domain.scan_uv[k])
+    np.testing.assert_array_equal(res.surface.uv, s.params[k])  # the caller's uv
     np.testing.assert_array_equal(res.surface.extras["approx_scan_vertices"], k)
     assert res.max_interpolation_error == 0.0  # corners="data": z_v = V[k_v] exactly
     np.testing.assert_array_equal(res.surface.extras["data_vertices"], s.V[k])
