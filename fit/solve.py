@@ -34,12 +34,13 @@ import jax.numpy as jnp
 import lineax as lx
 import numpy as np
 import scipy.sparse as sp
+from trispline.spline.util.memory import available_memory, format_bytes
 
 from .errors import FactorMemoryError, X64Error
 from .progress import Report, silent
 
 __all__ = ["SparseCholesky", "FactorSolver", "require_x64", "symmetric_from_upper", "estimate_factor_bytes",
-           "pardiso_factor_bytes", "available_memory", "check_memory", "release_free_heap"]
+           "pardiso_factor_bytes", "check_memory", "release_free_heap"]
 
 #: Live factors by handle (weak: a factor lives as long as its owner keeps it).
 _FACTORS: "weakref.WeakValueDictionary[int, SparseCholesky]" = weakref.WeakValueDictionary()
@@ -120,21 +121,6 @@ def pardiso_factor_bytes(iparm: np.ndarray) -> int:
     return 1024 * int(iparm[16])
 
 
-def available_memory() -> int | None:
-    """Bytes of memory the system can give without swapping (``MemAvailable``), or None if unknown."""
-    try:
-        with open("/proc/meminfo") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    try:  # pragma: no cover - not Linux
-        return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
-    except (ValueError, OSError, AttributeError):  # pragma: no cover
-        return None
-
-
 @functools.lru_cache(maxsize=None)
 def _point_pypardiso_at_mkl() -> None:
     """Tell pypardiso where MKL's runtime library is (its documented ``PYPARDISO_MKL_RT``), once.
@@ -170,14 +156,15 @@ def release_free_heap() -> None:
 def check_memory(estimate: int, max_bytes: int | str | None) -> None:
     """Raise :class:`FactorMemoryError` when ``estimate`` bytes exceed ``max_bytes``.
 
-    ``max_bytes``: bytes, ``"available"`` (:func:`available_memory` now) or None (no check).
+    ``max_bytes``: bytes, ``"available"`` (:func:`trispline.spline.util.memory.available_memory`
+    now) or None (no check).
     """
     limit = available_memory() if max_bytes == "available" else max_bytes
     if limit is None or estimate <= limit:
         return
     raise FactorMemoryError(
-        f"the sparse factorisation of this fit needs about {estimate / 2**30:.1f} GiB, but only "
-        f"{limit / 2**30:.1f} GiB of memory are available; fit a smaller mesh, or approximate it with "
+        f"the sparse factorisation of this fit needs about {format_bytes(estimate)}, but only "
+        f"{format_bytes(limit)} of memory are available; fit a smaller mesh, or approximate it with "
         f"fewer patches: trispline fit --tolerance TOL (approximation mode)", estimate=estimate, available=limit)
 
 
