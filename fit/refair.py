@@ -148,7 +148,7 @@ class LocalRefairer:
         """``(faces, vertices)``: the patches within ``rings`` of ``vertex`` and their vertices."""
         rings = self.rings if rings is None else self._check_rings(rings)
         ed = self.editor
-        verts = np.array([ed._vertex(vertex)], np.int64)
+        verts = np.array([ed.vertex_id(vertex)], np.int64)
         faces = ed.vertex_faces(verts)
         for _ in range(rings - 1):
             verts = np.unique(ed.space.tri.faces[faces])
@@ -169,7 +169,7 @@ class LocalRefairer:
 
     def move_vertex(self, vertex: int, xyz, rings: int | None = None) -> RefairResult:
         """Move data vertex ``vertex`` to ``xyz`` (the corner point follows exactly) and re-fair."""
-        v = self.editor._vertex(vertex)
+        v = self.editor.vertex_id(vertex)
         xyz = np.asarray(xyz, np.float64)
         if xyz.shape != (3,) or not np.isfinite(xyz).all():
             raise InputError(f"xyz must be 3 finite numbers, got {xyz!r}")
@@ -182,7 +182,7 @@ class LocalRefairer:
         clock = StageTimer()
         rings = self.rings if rings is None else self._check_rings(rings)
         ed, space = self.editor, self.editor.space
-        v = ed._vertex(vertex)
+        v = ed.vertex_id(vertex)
         ids, region = self.region_free(v, rings)
         faces, frame_vertices, halo = self._support(ids)
         clock("region")

@@ -191,11 +191,11 @@ class SplineEditor:
     # ------------------------------------------------------ addressing by meaning
     def corner_point(self, v: int) -> int:
         """Free id of the corner point ``z_v`` (the interpolated data vertex ``v``)."""
-        return int(self.space.corner_free[self._vertex(v)])
+        return int(self.space.corner_free[self.vertex_id(v)])
 
     def frame_points(self, v: int) -> np.ndarray:
         """``(2,)`` free ids of the frame points ``h_v(v + d_v e_x / 5)``, ``h_v(v + d_v e_y / 5)``."""
-        return self.space.frame_free[self._vertex(v)].copy()
+        return self.space.frame_free[self.vertex_id(v)].copy()
 
     def inner_point(self, face: int, local_vertex: int) -> int:
         """Free id of the near-corner inner point of ``face`` at its corner ``local_vertex``."""
@@ -353,7 +353,7 @@ class SplineEditor:
         With ``carry_frame`` (default) the two frame points move by the same offset, so
         the corner region (the tangent plane at ``v``) is translated, not tilted.
         """
-        v = self._vertex(v)
+        v = self.vertex_id(v)
         xyz = np.asarray(xyz, np.float64)
         if not carry_frame:
             return self.move(self.space.corner_free[v], xyz)
@@ -362,13 +362,14 @@ class SplineEditor:
         pos[0] = xyz  # exactly the new data vertex
         return self.move(ids, pos)
 
-    # --------------------------------------------------------------- internals
-    def _vertex(self, v) -> int:
+    def vertex_id(self, v) -> int:
+        """``v`` as a vertex index, checked: an integer in ``[0, V)`` (else :class:`InputError`)."""
         nv = self.space.tri.n_vertices
         if not (np.ndim(v) == 0 and float(v) == int(v) and 0 <= int(v) < nv):
             raise InputError(f"vertex must be an integer in [0, {nv}), got {v!r}")
         return int(v)
 
+    # --------------------------------------------------------------- internals
     def _face_local(self, face, k) -> tuple[int, int]:
         nf = self.space.tri.n_faces
         if not (np.ndim(face) == 0 and 0 <= int(face) < nf) or int(k) not in (0, 1, 2):
