@@ -3,9 +3,9 @@
 One home for each table that :func:`~trispline.param.validate_mesh` and
 :func:`~trispline.param.inspect_mesh` both need. Nothing here judges the mesh or raises:
 the tables are defined for any ``faces (nf, 3)`` with ids in ``[0, nv)``, non-manifold,
-unoriented and multi-component meshes included (the planar
-:class:`~trispline.spline.topology.Triangulation` builds its own, stricter tables for a
-validated domain).
+unoriented and multi-component meshes included. The half-edge and edge tables are
+:mod:`trispline.spline.topology`'s, which the planar
+:class:`~trispline.spline.topology.Triangulation` builds its stricter tables on.
 
 Half-edge ``3 f + k`` of face ``f`` is opposite local vertex ``k``: it runs from
 ``faces[f, k + 1]`` to ``faces[f, k + 2]`` (indices mod 3).
@@ -16,26 +16,10 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from trispline.spline.topology import halfedges, undirected_edges
 
-def halfedges(F: np.ndarray) -> np.ndarray:
-    """Directed half-edges ``(3 nf, 2)``: row ``3 f + k`` runs ``F[f, k+1] -> F[f, k+2]``."""
-    return np.stack([F[:, [1, 2, 0]], F[:, [2, 0, 1]]], axis=-1).reshape(-1, 2)
-
-
-def undirected_edges(F: np.ndarray, nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Half-edges and the undirected edges they lie on.
-
-    Returns ``he (3 nf, 2)`` (:func:`halfedges`), ``edges (ne, 2)`` with ``a <= b`` in
-    ascending order, ``he_edge (3 nf,)`` the edge of each half-edge and
-    ``edge_count (ne,)`` the number of half-edges on each edge (1 on the boundary, 2
-    inside, more on a non-manifold edge). A face with a repeated vertex id yields edges
-    ``(a, a)``.
-    """
-    he = halfedges(F)
-    key = np.minimum(he[:, 0], he[:, 1]) * nv + np.maximum(he[:, 0], he[:, 1])
-    uniq, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
-    edges = np.column_stack([uniq // nv, uniq % nv])
-    return he, edges, inv.ravel(), cnt
+__all__ = ["halfedges", "undirected_edges", "edge_pairs", "vertex_components", "corner_fans", "fan_counts",
+           "orientation_classes", "boundary_loop_count", "boundary_loops"]
 
 
 def edge_pairs(he_edge: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

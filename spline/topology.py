@@ -27,6 +27,28 @@ from .tolerances import MIN_RELATIVE_AREA
 from .util import gather as _gather, parallel as _parallel
 
 
+def halfedges(F: np.ndarray) -> np.ndarray:
+    """Directed half-edges ``(3 nf, 2)``: row ``3 f + k`` runs ``F[f, k+1] -> F[f, k+2]``
+    (the half-edge opposite local vertex ``k``)."""
+    return np.stack([F[:, [1, 2, 0]], F[:, [2, 0, 1]]], axis=-1).reshape(-1, 2)
+
+
+def undirected_edges(F: np.ndarray, nv: int, *, he: np.ndarray | None = None
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Half-edges and the undirected edges they lie on, for any ``F (nf, 3)`` with ids in ``[0, nv)``.
+
+    Returns ``he (3 nf, 2)`` (:func:`halfedges`, or the one given), ``edges (ne, 2)`` with
+    ``a <= b`` in ascending order, ``he_edge (3 nf,)`` the edge of each half-edge and
+    ``edge_count (ne,)`` the number of half-edges on each edge (1 on the boundary, 2
+    inside, more on a non-manifold edge). A face with a repeated vertex id yields edges ``(a, a)``.
+    """
+    he = halfedges(F) if he is None else he
+    key = np.minimum(he[:, 0], he[:, 1]) * nv + np.maximum(he[:, 0], he[:, 1])
+    uniq, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
+    edges = np.column_stack([uniq // nv, uniq % nv])
+    return he, edges, inv.ravel(), cnt
+
+
 def triangle_areas(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     """Signed areas ``(n,)`` of the triangles ``(a, b, c)``, each ``(n, 2)``; positive counter-clockwise."""
     return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
@@ -139,18 +161,12 @@ class Triangulation:
     @cached_property
     def _halfedges(self) -> np.ndarray:
         """(3 nf, 2) directed half-edges; half-edge ``3 f + k`` is opposite local vertex k."""
-        f = self.faces
-        return np.stack([f[:, [1, 2, 0]], f[:, [2, 0, 1]]], axis=-1).reshape(-1, 2)
+        return halfedges(self.faces)
 
     @cached_property
     def _edge_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        he = self._halfedges
-        nv = self.n_vertices
-        lo = np.minimum(he[:, 0], he[:, 1])
-        hi = np.maximum(he[:, 0], he[:, 1])
-        key = lo * nv + hi
-        uniq, inv = np.unique(key, return_inverse=True)
-        edges = np.column_stack([uniq // nv, uniq % nv]).astype(np.int64, copy=False)
+        he, edges, inv, _ = undirected_edges(self.faces, self.n_vertices, he=self._halfedges)
+        edges = edges.astype(np.int64, copy=False)
         face_edges = inv.reshape(-1, 3).astype(np.int64, copy=False)
         ne = edges.shape[0]
         edge_faces = np.full((ne, 2), -1, np.int64)
