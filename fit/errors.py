@@ -25,6 +25,11 @@ class ExportFormatError(OutputError):
     """An output file name whose suffix names no format we can write."""
 
 
+class LargeExportWarning(UserWarning):
+    """A mesh export is estimated (before it is written) above
+    :data:`~trispline.fit.io.export.LARGE_EXPORT_BYTES`."""
+
+
 class RenderError(InputError):
     """A bad render request (unknown mode or view, bad size, deviation without a data mesh)."""
 

@@ -35,7 +35,7 @@ from .patches import check_ctrl
 from .topology import Triangulation
 from .util import gather as _gather, memory as _memory, parallel as _parallel
 
-__all__ = ["Tessellation", "tessellate", "tessellation_counts"]
+__all__ = ["Tessellation", "tessellate", "tessellation_counts", "require_tessellation_memory"]
 
 #: Meshes with fewer faces are tessellated on the calling thread only.
 PARALLEL_FACES = 8192
@@ -62,6 +62,18 @@ def tessellation_counts(n_vertices: int, n_edges: int, n_faces: int, resolution:
     """``(vertex count, triangle count)`` of :func:`tessellate`."""
     r = int(resolution)
     return n_vertices + (r - 1) * n_edges + (r - 1) * (r - 2) // 2 * n_faces, r * r * n_faces
+
+
+def require_tessellation_memory(n_vertices: int, n_edges: int, n_faces: int, resolution: int, dim: int = 3
+                                ) -> tuple[int, int]:
+    """:func:`tessellation_counts`, after refusing (``ResourceError``) a tessellation whose arrays
+    would not fit in the available memory; callers may ask before the surface exists."""
+    r = int(resolution)
+    m, nt = tessellation_counts(n_vertices, n_edges, n_faces, r)
+    _memory.require_memory(m * (dim + 5) * 8 + nt * 3 * np.dtype(_memory.index_dtype(m)).itemsize,
+                           f"tessellating {n_faces} patches at resolution {r} ({m} points, {nt} triangles)",
+                           "use a lower resolution")
+    return m, nt
 
 
 class _Layout(NamedTuple):
@@ -207,10 +219,7 @@ def tessellate(
     tri = triangulation if triangulation is not None else Triangulation(uv, faces)
     ctrl = check_ctrl(tri.faces, ctrl)
     d, nf = ctrl.shape[2], tri.n_faces
-    m, nt = tessellation_counts(tri.n_vertices, tri.n_edges, nf, r)
-    _memory.require_memory(m * (d + 5) * 8 + nt * 3 * np.dtype(_memory.index_dtype(m)).itemsize,
-                           f"tessellating {nf} patches at resolution {r} ({m} points, {nt} triangles)",
-                           "use a lower resolution")
+    m, nt = require_tessellation_memory(tri.n_vertices, tri.n_edges, nf, r, d)
     lay, owners = _local_layout(r), _edge_owners(tri)
     mesh = Tessellation(np.empty((m, d)), np.empty((nt, 3), _memory.index_dtype(m)),
                         np.empty((m, 3 if d == 3 else 0)), np.empty((m, 2)))

@@ -350,7 +350,6 @@ def test_long_output_names(tmp_path, capsys, surface):
     assert_no_temporaries(tmp_path)
 
 
-@pytest.mark.xfail(strict=True, reason="needs fit/cli/common.check_output to use atomic.check_writable")
 def test_output_name_past_name_max_is_bad_input(tmp_path, capsys, surface):
     src = tmp_path / "s.npz"
     surface.save(src)
@@ -407,7 +406,6 @@ def test_same_file(tmp_path):
     assert not atomic.same_file(a, tmp_path / "b.obj") and not atomic.same_file(tmp_path / "b.obj", tmp_path / "b.obj")
 
 
-@pytest.mark.xfail(strict=True, reason="needs the fit CLI to refuse an output on its input (atomic.same_file)")
 def test_output_onto_the_input_is_refused(tmp_path, capsys):
     mesh = tmp_path / "m.obj"
     trimesh.Trimesh(V_GOOD, F_GOOD, process=False).export(mesh)
@@ -443,9 +441,7 @@ def test_signal_during_a_write_leaves_nothing(tmp_path, sig, code):
     assert_no_temporaries(tmp_path)
 
 
-@pytest.mark.parametrize("sig", [signal.SIGTERM, pytest.param(signal.SIGINT, marks=pytest.mark.xfail(
-    strict=False, reason="SIGINT during the solve: 'trispline: interrupted', then a C++ abort at interpreter "
-                         "exit ('FATAL: exception not rethrown', exit -6): timing-dependent, fit/CLI area"))])
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_signal_during_a_fit_leaves_nothing(tmp_path, sig):
     """Mid-fit: SIGTERM ends it, SIGINT exits 130 with one line; a complete output or none, never a
     temporary (the signal may land in the write, whose renames run with signals held back)."""
@@ -562,3 +558,99 @@ def test_resource_limits_are_stated_before_the_work(case):
 def test_nan_barycentric_coordinates_are_refused():
     with pytest.raises(InputError, match="bary has non-finite entries"):
         _c1().evaluate(np.array([0]), np.array([[np.nan, 0.5, 0.5]]))
+
+
+# ============================================================= command-line options
+@pytest.fixture()
+def files(tmp_path, surface):
+    """``(folder, surface file, mesh file)`` in a fresh folder."""
+    src = tmp_path / "s.npz"
+    surface.save(src)
+    mesh = tmp_path / "m.obj"
+    trimesh.Trimesh(V_GOOD, F_GOOD, process=False).export(mesh)
+    return tmp_path, src, mesh
+
+
+ABSURD_OPTIONS = {  # name: (arguments with {s} the surface file, {m} the mesh, {d} the folder; message)
+    "fit --fit-rings 1000": ("fit {m} -o {d}/o.npz --fit-rings 1000", "at most 6, got 1000"),
+    "fit --fit-rings 0": ("fit {m} -o {d}/o.npz --fit-rings 0", "at least 1"),
+    "fit --blend-power 1e308": ("fit {m} -o {d}/o.npz --blend-power 1e308", "at most 16, got 1e308"),
+    "fit --fit-degree 4": ("fit {m} -o {d}/o.npz --fit-degree 4", "at most 3"),
+    "fit --bend nan": ("fit {m} -o {d}/o.npz --bend nan", "expected a finite number >= 0, got nan"),
+    "fit --tilt -1": ("fit {m} -o {d}/o.npz --tilt -1", "expected a finite number >= 0, got -1"),
+    "fit --local inf": ("fit {m} -o {d}/o.npz --local inf", "expected a finite number >= 0"),
+    "fit bend and local 0": ("fit {m} -o {d}/o.npz --bend 0 --local 0", "bend and local weights must be positive"),
+    "fit --example-faces 1e9": ("fit --example --example-faces 1000000000 -o {d}/o.npz", "would need about"),
+    "fit --example-faces text": ("fit --example --example-faces 1e9 -o {d}/o.npz", "expected a positive integer"),
+    "fit --mesh-out --resolution 1e6": ("fit {m} -o {d}/o.npz --mesh-out {d}/o.obj --resolution 1000000",
+                                        "would need about"),
+    "export --resolution 1e6": ("export {s} -o {d}/o.obj --resolution 1000000", "would need about"),
+    "render --resolution 1e6": ("render {s} -o {d}/o.png --resolution 1000000", "would need about"),
+    "check --samples 1e9": ("check {s} --samples 1000000000", "would need about"),
+    "fit -o the input": ("fit {m} -o {d}/o.npz --control-net {m}", "it is the input"),
+    "export -o the input": ("export {s} -o {s}", "it is the input"),
+    "export -o a link to the input": ("export {s} -o {d}/link.npz", "it is the input"),
+    "render -o a link to the input": ("render {s} -o {d}/link.png", "it is the input"),
+    "output name past NAME_MAX": ("export {s} -o {d}/" + "n" * 260 + ".obj", "file system allows"),
+}
+
+
+@pytest.mark.parametrize("case", list(ABSURD_OPTIONS))
+def test_absurd_options_are_refused_before_any_work(files, capsys, case):
+    """One line, exit 2, within a second or two (no fit, no allocation), nothing written."""
+    folder, src, mesh = files
+    (folder / "link.npz").symlink_to(src)
+    (folder / "link.png").symlink_to(src)
+    before = Snapshot(folder)
+    args, message = ABSURD_OPTIONS[case]
+    t0 = time.perf_counter()
+    r = cli(capsys, *args.format(s=src, m=mesh, d=folder).split())
+    assert_cli_error(r, message)
+    assert time.perf_counter() - t0 < 10
+    before.assert_unchanged()
+    assert_no_temporaries(folder)
+
+
+def test_a_sliver_is_bad_input(tmp_path, capsys):
+    """A triangle of aspect 1e8 is refused as bad input (it made the factorisation fail: exit 1)."""
+    V = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1e-8, 0], [0.5, -1, 0]], float)
+    path = tmp_path / "sliver.obj"
+    trimesh.Trimesh(V, np.array([[0, 1, 2], [0, 3, 1]]), process=False).export(path)
+    assert_cli_error(cli(capsys, "fit", path, "-o", tmp_path / "s.npz"), "slivers too thin to fit")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sliver.obj"]
+
+
+def test_demo_with_a_bad_option_leaves_no_folder(tmp_path, capsys):
+    for args, message in ((["--mesh-out", "x.obj"], "unrecognized arguments: --mesh-out"),
+                          (["--image", "x.png"], "unrecognized arguments: --image"),
+                          (["--bend", "0", "--local", "0"], "bend and local weights must be positive")):
+        assert_cli_error(cli(capsys, "demo", "-o", tmp_path / "new", *args), message)
+        assert list(tmp_path.iterdir()) == []
+
+
+def test_terminated_is_one_line_and_exit_143(capsys):
+    """SIGTERM while outputs are open raises atomic.Terminated: 'trispline: terminated', exit 143."""
+    from trispline.fit.cli.common import Parser, run_cli
+
+    def make_parser():
+        parser = Parser(prog="trispline")
+        parser.set_defaults(func=lambda args, ui: (_ for _ in ()).throw(atomic.Terminated(143)))
+        return parser
+
+    capsys.readouterr()
+    assert run_cli(make_parser, []) == 143
+    assert capsys.readouterr().err.strip() == "trispline: terminated"
+
+
+@pytest.mark.parametrize("case", ["float faces", "complex V", "object V", "object F", "string V", "NaN V"])
+def test_fit_api_wrong_dtypes(case):
+    jax = pytest.importorskip("jax")
+    jax.config.update("jax_enable_x64", True)
+    from trispline.fit.pipeline import fit_surface
+
+    V, F = V_GOOD, F_GOOD
+    bad = {"float faces": (V, F + 0.0), "complex V": (V + 0j, F), "object V": (V.astype(object), F),
+           "object F": (V, F.astype(object)), "string V": (V.astype(str), F),
+           "NaN V": (np.where(np.arange(V.size).reshape(V.shape) == 4, np.nan, V), F)}[case]
+    with pytest.raises(InputError, match=r"must (be integers|hold real numbers|be finite)|non-finite"):
+        fit_surface(*bad)

@@ -30,7 +30,7 @@ import argparse
 from typing import Sequence
 
 from . import check, export, fit, info, render
-from .common import PROG, Parser, run_cli, version
+from .common import PROG, Parser, leave, run_cli, version
 from .fit import WEIGHT_FIELDS
 
 __all__ = ["WEIGHT_FIELDS", "build_parser", "main"]
@@ -56,5 +56,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; returns the exit code (see the module docstring)."""
-    return run_cli(build_parser, argv)
+    """Run the command line; returns the exit code (see the module docstring).
+
+    As the program itself (``argv`` None: the ``trispline`` script, ``python -m trispline.fit``)
+    an interrupted or terminated command ends the process at once (:func:`~.common.leave`);
+    called with arguments (tests, other programs) it always returns.
+    """
+    code = run_cli(build_parser, argv)
+    return leave(code) if argv is None else code

@@ -16,7 +16,15 @@ from .common import (
     EXIT_CHECK, EXIT_OK, PROG, UI, add_common, fmt, load_surface, nonneg_float, positive_int,
 )
 
-__all__ = ["add_parser", "cmd_check", "surface_report"]
+__all__ = ["add_parser", "cmd_check", "surface_report", "PRECISION_MARGIN"]
+
+#: A residual passes when within the tolerance plus this many times the residual that the
+#: rounding of the stored coordinates alone makes (``precision_floor``: one random draw of
+#: half-ulp errors, of which the fit's own rounding is one more draw).
+PRECISION_MARGIN = 8.0
+#: Below this relative precision of the coordinates (``eps * max|ctrl| / extent``) the floor is not
+#: measured: it is far below any tolerance worth asking.
+FLOOR_NEGLIGIBLE = 1e-14
 
 
 def add_parser(sub: Any) -> None:
@@ -34,15 +42,26 @@ def add_parser(sub: Any) -> None:
 
 
 def surface_report(surface: Any, *, tolerance: float = CHECK_TOLERANCE, samples: int = 7) -> dict:
-    """Continuity residuals and statistics of a surface (the body of ``check``)."""
+    """Continuity residuals and statistics of a surface (the body of ``check``).
+
+    The residuals are measured on the net moved to its bounding box's centre (exactly the same
+    C1 conditions: they are affine), so that a surface far from the origin is judged on its own
+    digits. The stored coordinates are rounded to their own precision, though: a tile of 10 m
+    at 1e6 m keeps about 1e-10 of its extent, a millimetre at 1e9 only 1e-4. ``precision_floor``
+    holds the residuals that this rounding alone makes (measured on a random perturbation of
+    half an ulp per coordinate); a residual passes when it is within ``tolerance`` plus
+    :data:`PRECISION_MARGIN` times its floor.
+    """
     from trispline.spline.continuity import continuity_report
+    from trispline.spline.surface import SplineSurface
 
     tri = surface.triangulation
     ctrl = np.asarray(surface.ctrl)
-    alg = continuity_report(tri, ctrl)
-    num = surface.continuity(samples)
-    num = {k: v for k, v in num.items() if not isinstance(v, np.ndarray)}
     pts = ctrl.reshape(-1, 3)
+    centre = 0.5 * (pts.min(0) + pts.max(0)) if pts.size else np.zeros(3)
+    centred = SplineSurface(surface.uv, surface.faces, ctrl - centre)
+    alg = continuity_report(tri, ctrl - centre)
+    num = {k: v for k, v in centred.continuity(samples).items() if not isinstance(v, np.ndarray)}
     corners = _corner_points(tri, ctrl)
     report: dict[str, Any] = dict(
         patches=tri.n_faces, vertices=tri.n_vertices, edges=tri.n_edges,
@@ -55,9 +74,33 @@ def surface_report(surface: Any, *, tolerance: float = CHECK_TOLERANCE, samples:
     report.update(_stored_fit(dict(surface.extras), corners))
     worst = dict(c0_algebraic=alg["c0_relative"], c1_algebraic=alg["c1_relative"],
                  c0_sampled=num["c0_relative"], c1_sampled=num["c1_relative"])
-    failed = sorted(k for k, v in worst.items() if not v <= tolerance)
-    report.update(tolerance=tolerance, relative_residuals=worst, failed=failed, ok=not failed)
+    floor = _precision_floor(surface, samples, alg, num)
+    failed = sorted(k for k, v in worst.items() if not v <= tolerance + PRECISION_MARGIN * floor[k])
+    report.update(tolerance=tolerance, relative_residuals=worst, precision_floor=floor, centre=centre,
+                  failed=failed, ok=not failed)
     return report
+
+
+def _precision_floor(surface: Any, samples: int, alg: dict, num: dict) -> dict[str, float]:
+    """The relative residuals that rounding the stored coordinates alone makes: those of a random
+    perturbation of half an ulp per coordinate, over the surface's own scales (``alg`` and
+    ``num``: its algebraic and sampled reports). Zeros when the coordinates are finer than the
+    tolerances could notice (data near the origin)."""
+    from trispline.spline.continuity import continuity_report
+    from trispline.spline.patches import numeric_continuity
+
+    ctrl = np.asarray(surface.ctrl)
+    keys = ("c0_algebraic", "c1_algebraic", "c0_sampled", "c1_sampled")
+    scale = max(alg["scale"], 1e-300)
+    if ctrl.size == 0 or np.finfo(float).eps * np.abs(ctrl).max() / scale < FLOOR_NEGLIGIBLE:
+        return dict.fromkeys(keys, 0.0)
+    rng = np.random.default_rng(0)
+    delta = (rng.random(ctrl.shape) - 0.5) * np.spacing(np.abs(ctrl))
+    a = continuity_report(surface.triangulation, delta)
+    n = numeric_continuity(surface.uv, surface.faces, delta, samples)
+    return dict(c0_algebraic=a["c0_max"] / scale, c1_algebraic=a["c1_max"] / scale,
+                c0_sampled=n["c0_max"] / max(num["scale"], 1e-300),
+                c1_sampled=n["c1_max"] / max(num["gradient_scale"], 1e-300))
 
 
 def _corner_points(tri: Any, ctrl: np.ndarray) -> np.ndarray:
@@ -77,7 +120,10 @@ def _stored_fit(ex: dict, corners: np.ndarray) -> dict[str, Any]:
         if names in ex and values in ex:
             report[key] = dict(zip([str(s) for s in np.atleast_1d(ex[names])],
                                    [float(v) for v in np.atleast_1d(ex[values])]))
-    for key in ("fit_param", "fit_source", "fit_iterations", "fit_converged"):
+    if "fit_energies_normalised" in ex and "fit_energy_names" in ex:  # per unit area of a unit-diagonal surface
+        report["energies_normalised"] = dict(zip([str(s) for s in np.atleast_1d(ex["fit_energy_names"])],
+                                                 [float(v) for v in np.atleast_1d(ex["fit_energies_normalised"])]))
+    for key in ("fit_param", "fit_param_chosen", "fit_source", "fit_iterations", "fit_converged"):
         if key in ex:
             v = np.asarray(ex[key])
             report[key[4:]] = v.item() if v.ndim == 0 else v.tolist()
@@ -115,6 +161,9 @@ def _check_text(d: dict) -> str:
     ]
     if "energies" in d:
         lines.append("  stored energies: " + ", ".join(f"{k} {fmt(v)}" for k, v in d["energies"].items()))
+    if "energies_normalised" in d:
+        lines.append("  normalised (unit bounding-box diagonal, per unit domain area): "
+                     + ", ".join(f"{k} {fmt(v)}" for k, v in d["energies_normalised"].items()))
     if "max_interpolation_error" in d:
         lines.append(f"  max interpolation error: {fmt(d['max_interpolation_error'])}")
     if "domain_max_move" in d:
@@ -126,6 +175,11 @@ def _check_text(d: dict) -> str:
             f"tolerance {fmt(a['tolerance'])} {'met' if a.get('met') else 'NOT met'}"
         lines.append(f"  stored deviation of the scan (inliers): max {fmt(dev.get('max'))}, RMS {fmt(dev.get('rms'))} "
                      f"({tol}; {int(dev.get('rejected', 0))} rejected; loss {a.get('loss')}, corners {a.get('corners')})")
+    fl = d["precision_floor"]
+    if any(fl.values()):
+        lines.append(f"  far from the origin (centre {np.round(d['centre'], 3).tolist()}): the stored coordinates' "
+                     f"rounding alone makes c1_algebraic {fmt(fl['c1_algebraic'])}, c1_sampled "
+                     f"{fmt(fl['c1_sampled'])}; allowed: tolerance + {PRECISION_MARGIN:g} x that")
     verdict = ("OK: C1 within tolerance" if d["ok"]
                else f"FAILED: {', '.join(d['failed'])} above tolerance")
     lines.append(f"  {verdict} {d['tolerance']:g}")

@@ -18,14 +18,15 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from trispline.spline.errors import InputError, OutputError
+from trispline.spline.errors import InputError
+from trispline.spline.util import atomic
 
 from ..errors import CommandFailed, UsageError
 
 __all__ = [
-    "PROG", "EXIT_OK", "EXIT_FAILURE", "EXIT_INPUT", "EXIT_CHECK", "EXIT_INTERRUPTED",
+    "PROG", "EXIT_OK", "EXIT_FAILURE", "EXIT_INPUT", "EXIT_CHECK", "EXIT_INTERRUPTED", "EXIT_TERMINATED",
     "Parser", "UI", "Stages", "one_line", "fmt", "positive_int", "nonneg_float", "positive_float",
-    "finite_float", "add_common", "check_output", "distinct", "load_surface", "version", "run_cli",
+    "finite_float", "add_common", "check_output", "distinct", "load_surface", "version", "run_cli", "leave",
 ]
 
 PROG = "trispline"
@@ -34,6 +35,7 @@ EXIT_FAILURE = 1
 EXIT_INPUT = 2
 EXIT_CHECK = 3
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 128 + 15
 
 
 class Parser(argparse.ArgumentParser):
@@ -211,21 +213,23 @@ def add_common(p: argparse.ArgumentParser) -> None:
 
 
 # ============================================================================ files
-def check_output(path: str | None, formats: tuple[str, ...], what: str) -> Path | None:
-    """Validate an output path before any work: known suffix, existing writable folder."""
+def check_output(path: str | None, formats: tuple[str, ...], what: str,
+                 inputs: Sequence[str | os.PathLike | None] = ()) -> Path | None:
+    """Validate an output path before any work: a known suffix, then
+    :func:`~trispline.spline.util.atomic.check_writable` (the one home of the output-path
+    checks: existing writable folder, not a folder, a name the file system allows), and not
+    one of ``inputs`` (an output is never written onto the file it is made from)."""
     if path is None:
         return None
-    from ..io.export import check_export_path
+    from trispline.spline.util.atomic import check_writable, same_file
+
+    from ..io.formats import check_export_path
 
     check_export_path(path, formats)
-    p = Path(path)
-    folder = p.parent
-    if not folder.is_dir():
-        raise OutputError(f"cannot write {what} {p}: folder {folder} does not exist")
-    if p.is_dir():
-        raise OutputError(f"cannot write {what} {p}: it is a folder")
-    if not os.access(folder, os.W_OK):
-        raise OutputError(f"cannot write {what} {p}: folder {folder} is not writable")
+    p = check_writable(path, what)
+    for source in inputs:
+        if source is not None and same_file(p, source):
+            raise UsageError(f"cannot write {what} {p}: it is the input {source}; choose another name")
     return p
 
 
@@ -249,13 +253,11 @@ def load_surface(path: str) -> Any:
 
 
 def version() -> str:
-    """The installed package's version, or ``"unknown"`` in a bare source checkout."""
-    try:
-        from importlib.metadata import version as installed
+    """The installed package's version, or ``"unknown"`` in a bare source checkout
+    (:func:`trispline.fit.render.caption.package_version`, the one home of it)."""
+    from ..render.caption import package_version
 
-        return installed("trispline")
-    except Exception:  # noqa: BLE001 - not installed (source checkout)
-        return "unknown"
+    return package_version()
 
 
 # ============================================================================ running
@@ -283,6 +285,9 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
                 return int(args.func(args, ui))
             finally:
                 warnings.showwarning = shown
+    except atomic.Terminated as exc:  # SIGTERM while outputs were open: their temporaries are gone
+        print(f"{PROG}: terminated", file=sys.stderr)
+        return int(exc.code)
     except SystemExit as exc:  # --help, --version
         return int(exc.code or 0) if not isinstance(exc.code, str) else EXIT_INPUT
     except KeyboardInterrupt:
@@ -299,3 +304,18 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
         hint = "" if debug else " (run with --debug for the traceback)"
         print(f"{PROG}: internal error: {type(exc).__name__}: {one_line(str(exc))}{hint}", file=sys.stderr)
         return EXIT_FAILURE
+
+
+def leave(code: int) -> int:
+    """End the program with ``code``: after a failure, an interrupt or a termination (any code but 0)
+    at once with :func:`os._exit`, streams flushed first, since a normal interpreter exit would wait
+    for (and abort in) the threads a cut-short fit leaves running ("FATAL: exception not rethrown",
+    exit -6). On success returns ``code`` (the interpreter ends normally)."""
+    if code != EXIT_OK:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):  # pragma: no cover - a closed pipe
+                pass
+        os._exit(code)
+    return code

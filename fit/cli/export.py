@@ -67,8 +67,9 @@ def cmd_export(args: argparse.Namespace, ui: UI) -> int:
         raise UsageError("--net-lines needs --control-net FILE")
     if args.merge and not (args.output and Path(args.output).suffix.lower() in CAD_FORMATS):
         raise UsageError("--merge is for CAD outputs (-o OUT.step|.stp|.iges|.igs|.3dm)")
-    out_path = check_output(args.output, EXPORT_FORMATS, "the output")
-    net_path = check_output(args.control_net, (".obj",) if args.net_lines else MESH_FORMATS, "--control-net")
+    out_path = check_output(args.output, EXPORT_FORMATS, "the output", [args.surface])
+    net_path = check_output(args.control_net, (".obj",) if args.net_lines else MESH_FORMATS, "--control-net",
+                            [args.surface])
     distinct([out_path, net_path])
     surface = load_surface(args.surface)
     data = dict(command="export", input=args.surface, output=None if out_path is None else str(out_path),

@@ -1,12 +1,22 @@
 """``trispline fit`` and ``trispline demo``: load (or generate) a mesh, validate, fit, write atomically.
 
-    trispline fit MESH -o SURFACE.npz [--param lscm|harmonic|uv] [--bend W ...] [--keep-largest]
-                  [--mesh-out FILE --resolution N] [--image PNG] [--control-net FILE]
+    trispline fit MESH -o SURFACE.npz [--param lscm|harmonic|slim|uv|auto] [--repair | --keep-largest]
+                  [--bend W ...] [--mesh-out FILE [--resolution N]] [--image PNG] [--control-net FILE]
     trispline fit --example -o SURFACE.npz                # the built-in synthetic scan
     trispline demo [-o DIR]                               # the example, with every output in DIR
 
-The mesh is validated before JAX starts, so an unusable mesh fails in a fraction of
-a second; JAX is imported (and switched to float64) only here.
+Every option is checked before any work (absurd sizes are refused with the memory they would
+need), and the mesh is validated and parameterized before JAX starts, so an unusable mesh
+fails in a fraction of a second; JAX is imported (and switched to float64) only here.
+
+Two things happen here rather than in :func:`~trispline.fit.pipeline.fit_surface`: the
+parameterization (to report its choice, distortion and warnings, and to put the domain back
+into the user's coordinates with :func:`trispline.param.user_domain` for ``--param uv``), and
+the control points of data far from the origin (UTM tiles, offsets of 1e6 and more) are
+computed relative to the data's centre (:func:`_centred_ctrl`), so the stored net is C1 up to
+the rounding of its coordinates. Energies are reported in data units and normalised
+(:func:`trispline.fit.energy.normalised_energies`: the data scaled to a unit bounding-box
+diagonal, per unit area of the domain), which compare across meshes.
 """
 from __future__ import annotations
 
@@ -26,7 +36,9 @@ from ..weights import FitWeights
 from . import approximate
 from .common import EXIT_OK, UI, add_common, check_output, distinct, fmt, nonneg_float, positive_int
 
-__all__ = ["WEIGHT_FIELDS", "FIT_STAGES", "EXAMPLE_FACES", "add_parsers", "cmd_fit", "cmd_demo"]
+__all__ = ["WEIGHT_FIELDS", "WEIGHT_HELP", "FIT_STAGES", "EXAMPLE_FACES", "MAX_FIT_RINGS", "MAX_BLEND_POWER",
+           "MAX_DOMAIN_ASPECT",
+           "add_parsers", "cmd_fit", "cmd_demo"]
 
 #: Default faces of the built-in example scan.
 EXAMPLE_FACES = 800
@@ -34,6 +46,27 @@ EXAMPLE_FACES = 800
 #: (``trispline.fit.weights`` imports no JAX, so the parser stays fast).
 WEIGHT_FIELDS: tuple[tuple[str, type], ...] = tuple(
     (f.name, type(f.default)) for f in dataclasses.fields(FitWeights))
+#: ``--fit-rings`` above this is refused: the local fits' neighbourhoods grow with its square
+#: (1000 rings on a 9k-face mesh ran for minutes), and beyond a few rings they stop being local.
+MAX_FIT_RINGS = 6
+#: ``--blend-power`` above this is refused: the blend's weights ``5^p`` overflow near p = 441,
+#: and far below that the blend is already a step at every corner.
+MAX_BLEND_POWER = 16.0
+#: A domain triangle more elongated than this (longest edge over its height) is refused before
+#: the fit: at 1e7 the fit's normal matrix is no longer positive definite in float64 (measured:
+#: a sliver of height 1e-6 on a unit base fits with C1 residual 1e-16, one of 1e-7 fails).
+MAX_DOMAIN_ASPECT = 1e6
+#: The meaning of each weight flag, as ``--help`` says it (docs/fit.md has the details).
+WEIGHT_HELP = {
+    "bend": "thin-plate bending over the domain: smooths the surface between the vertices",
+    "tilt": "pulls each vertex's tangent frame toward its local fit's (stops bumps beside vertices)",
+    "local": "pulls the other control points toward the blended local fits (accuracy on dense, smooth data)",
+    "data": "weight of extra sample points (API data_points; the approximation's data term)",
+    "angle": "nonlinear: frame normals toward the data normals (several Gauss-Newton steps; slower)",
+    "fit_degree": "highest polynomial degree of the local fits: 2, or 3 (also the r^7 kernel)",
+    "fit_rings": f"edge rings of neighbours each local fit uses, 1..{MAX_FIT_RINGS}",
+    "blend_power": f"exponent of the corner blend of the local targets, 0..{MAX_BLEND_POWER:g}",
+}
 
 
 # ============================================================================ parser
@@ -41,12 +74,17 @@ def add_parsers(sub: Any) -> None:
     """Register ``fit`` and ``demo`` on an ``add_subparsers()`` action."""
     p = sub.add_parser("fit", help="fit a C1 spline surface to an open mesh",
                        description="Interpolate the mesh vertices with an exactly C1 quintic spline and fair it. "
-                                   "Vertex i of the mesh is vertex i of the surface (its corner point).")
+                                   "Vertex i of the mesh is vertex i of the surface (its corner point; with --repair "
+                                   "or --keep-largest the file's source_vertex_index says which). The summary "
+                                   "reports each energy term normalised: for the data scaled to a unit "
+                                   "bounding-box diagonal, per unit area of the domain, so that the numbers "
+                                   "compare across meshes (--json: energies_normalised, and energies in data "
+                                   "units).")
     p.add_argument("mesh", nargs="?", metavar="MESH", help="input mesh (.obj .off .ply .stl .glb .gltf)")
     p.add_argument("--example", action="store_true", help="fit the built-in synthetic scan instead of MESH")
-    p.add_argument("--example-faces", type=positive_int, default=EXAMPLE_FACES,
-                   help=f"triangles of the built-in scan (default {EXAMPLE_FACES})")
-    p.add_argument("-o", "--output", required=True, metavar="SURFACE", help="surface file to write (.npz or .json)")
+    p.add_argument("--example-faces", type=positive_int, default=EXAMPLE_FACES, metavar="N",
+                   help=f"triangles of the built-in scan, with --example (default {EXAMPLE_FACES})")
+    p.add_argument("-o", "--output", required=True, metavar="SURFACE", help="surface file to write (.npz or .json; required)")
     _add_fit_options(p)
     approximate.add_options(p)
     add_common(p)
@@ -57,31 +95,78 @@ def add_parsers(sub: Any) -> None:
                                    "and write DIR/scan.obj, DIR/surface.npz, DIR/surface.ply and DIR/surface.png.")
     p.add_argument("-o", "--output-dir", default="trispline-demo", metavar="DIR",
                    help="folder for the results (created; default trispline-demo)")
-    p.add_argument("--example-faces", type=positive_int, default=EXAMPLE_FACES,
+    p.add_argument("--example-faces", type=positive_int, default=EXAMPLE_FACES, metavar="N",
                    help=f"triangles of the built-in scan (default {EXAMPLE_FACES})")
-    _add_fit_options(p)
+    _add_fit_options(p, outputs=False)
     add_common(p)
-    p.set_defaults(func=cmd_demo, mesh=None, example=True)
+    p.set_defaults(func=cmd_demo, mesh=None, example=True, mesh_out=None, image=None, control_net=None)
 
 
-def _add_fit_options(p: argparse.ArgumentParser) -> None:
+def _add_fit_options(p: argparse.ArgumentParser, outputs: bool = True) -> None:
+    """The fit's options; ``outputs``: also --mesh-out / --image / --control-net (fit, not demo)."""
     p.add_argument("--param", choices=METHODS, default=DEFAULT_METHOD,
-                   help="parameterization: lscm (free boundary, default), harmonic (boundary on a circle), "
-                        "uv (the OBJ's texture coordinates, or x, y of a height field)")
+                   help=f"parameterization (default {DEFAULT_METHOD}): lscm (conformal, free boundary), harmonic "
+                        "(boundary on a circle), slim (conformal and fold-free by construction; slower), uv (the "
+                        "OBJ's texture coordinates, or x, y of a height field; the surface file's uv is then "
+                        "exactly yours), auto (lscm unless it folds or is strongly distorted, else the least "
+                        "distorted of lscm/harmonic/slim; says which and why)")
     p.add_argument("--keep-largest", action="store_true",
                    help="fit the largest connected component instead of rejecting several components "
-                        "(vertices are renumbered; the surface file records the input index)")
-    p.add_argument("--max-steps", type=positive_int, default=50, help="Gauss-Newton step limit (default 50)")
-    p.add_argument("--resolution", type=positive_int, default=8,
-                   help="tessellation steps per patch edge for --mesh-out / --image (default 8)")
-    p.add_argument("--mesh-out", metavar="FILE", help="also write the tessellated surface (.obj .ply .stl .glb)")
-    p.add_argument("--image", metavar="PNG", help="also render a picture of the surface (.png)")
-    p.add_argument("--control-net", metavar="FILE", help="also write the control net as a mesh (.obj .ply .stl .glb)")
-    g = p.add_argument_group("fairness weights (FitWeights fields; defaults and meaning in docs/fit.md)")
+                        "(vertices are renumbered; the surface file records the input index; default: off)")
+    p.add_argument("--repair", action="store_true",
+                   help="repair the mesh first: split bowtie vertices, cut non-manifold edges, drop zero-area and "
+                        "duplicate faces, keep the largest component; says what changed, and the surface file's "
+                        "source_vertex_index maps its vertices to the input's (default: off)")
+    p.add_argument("--max-steps", type=positive_int, default=50, metavar="N",
+                   help="Gauss-Newton step limit; the default quadratic energy needs 1 (default 50)")
+    p.add_argument("--resolution", type=positive_int, default=None, metavar="N",
+                   help="steps per patch edge of " + ("--mesh-out (N^2 triangles per patch) and of --image (at most "
+                                                      "6)" if outputs else "surface.ply and surface.png")
+                        + "; default: automatic from the patch count (mesh: about 1.5M triangles, at most 8; "
+                          "picture: the renderer's own); a size beyond the available memory is refused up front")
+    if outputs:
+        p.add_argument("--mesh-out", metavar="FILE",
+                       help="also write the tessellated surface (.obj .ply .stl .glb; default: none), with a "
+                            "warning when it will be large")
+        p.add_argument("--image", metavar="PNG",
+                       help="also render a shaded picture of the surface, as 'trispline render' draws it (.png; "
+                            "default: none)")
+        p.add_argument("--control-net", metavar="FILE",
+                       help="also write the control net as a mesh (.obj .ply .stl .glb; default: none)")
+    defaults = FitWeights()
+    g = p.add_argument_group("fairness weights (FitWeights; no unit: only their ratios matter, the terms are "
+                             "scaled alike for any mesh size; details in docs/fit.md)")
     for name, kind in WEIGHT_FIELDS:
-        conv = positive_int if kind is int else nonneg_float
+        conv = _WEIGHT_TYPES.get(name, positive_int if kind is int else nonneg_float)
         g.add_argument(f"--{name.replace('_', '-')}", dest=f"w_{name}", type=conv, default=None,
-                       metavar="N" if kind is int else "W", help=f"FitWeights.{name}")
+                       metavar="N" if kind is int else "W",
+                       help=f"{WEIGHT_HELP.get(name, 'FitWeights.' + name)} (default {getattr(defaults, name):g})")
+
+
+def _bounded(kind: type, low: float, high: float, low_open: bool = False) -> Callable[[str], Any]:
+    """argparse type: a ``kind`` number in ``[low, high]`` (``(low, high]`` with ``low_open``)."""
+
+    def convert(text: str) -> Any:
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {'an integer' if kind is int else 'a number'}, "
+                                             f"got {text!r}") from None
+        ok = np.isfinite(v) and (v > low if low_open else v >= low) and v <= high
+        if not ok:
+            raise argparse.ArgumentTypeError(f"expected {'more than' if low_open else 'at least'} {low:g} and "
+                                             f"at most {high:g}, got {text}")
+        return v
+
+    convert.__name__ = kind.__name__
+    return convert
+
+
+#: Flag types of the weights that are not plain non-negative numbers.
+_WEIGHT_TYPES: dict[str, Callable[[str], Any]] = {
+    "fit_degree": _bounded(int, 2, 3), "fit_rings": _bounded(int, 1, MAX_FIT_RINGS),
+    "blend_power": _bounded(float, 0, MAX_BLEND_POWER),
+}
 
 
 # ============================================================================ commands
@@ -93,11 +178,12 @@ def cmd_fit(args: argparse.Namespace, ui: UI) -> int:
         raise UsageError("give either MESH or --example, not both")
     if not args.example and not args.mesh:
         raise UsageError("the following arguments are required: MESH (or --example)")
+    inputs = [args.mesh]
     outputs = dict(
-        surface=check_output(args.output, SURFACE_FORMATS, "the surface"),
-        mesh=check_output(args.mesh_out, MESH_FORMATS, "--mesh-out"),
-        image=check_output(args.image, IMAGE_FORMATS, "--image"),
-        control_net=check_output(args.control_net, MESH_FORMATS, "--control-net"),
+        surface=check_output(args.output, SURFACE_FORMATS, "the surface", inputs),
+        mesh=check_output(args.mesh_out, MESH_FORMATS, "--mesh-out", inputs),
+        image=check_output(args.image, IMAGE_FORMATS, "--image", inputs),
+        control_net=check_output(args.control_net, MESH_FORMATS, "--control-net", inputs),
     )
     distinct(list(outputs.values()))
     if approximate.requested(args):  # --tolerance / --tolerance-rel / --vertices: fit/cli/approximate.py
@@ -109,23 +195,32 @@ def cmd_fit(args: argparse.Namespace, ui: UI) -> int:
 
 
 def cmd_demo(args: argparse.Namespace, ui: UI) -> int:
-    """Body of ``trispline demo``: ``fit --example`` with every output in one folder."""
+    """Body of ``trispline demo``: ``fit --example`` with every output in one folder (a folder it
+    creates is removed again when the command fails before writing into it)."""
     from ..io.export import export_mesh
 
     folder = Path(args.output_dir)
     if folder.exists() and not folder.is_dir():
         raise UsageError(f"{folder} exists and is not a folder")
-    folder.mkdir(parents=True, exist_ok=True)
+    created = not folder.exists()
+    if not created:
+        check_output(str(folder / "surface.npz"), (".npz",), "the demo's surface")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"cannot create {folder}: {exc.strerror or exc}") from None
     outputs = dict(surface=folder / "surface.npz", mesh=folder / "surface.ply", image=folder / "surface.png",
                    control_net=None)
-    for name in ("mesh_out", "image", "control_net"):
-        if getattr(args, name, None):
-            raise UsageError(f"demo writes its files into {folder}; --{name.replace('_', '-')} belongs to fit")
 
     def write_scan(out, VF) -> None:
         export_mesh(VF[0], VF[1], folder / "scan.obj", outputs=out)
 
-    data = _fit(args, ui, outputs, write_scan)
+    try:
+        data = _fit(args, ui, outputs, write_scan)
+    except BaseException:
+        if created and folder.is_dir() and not any(folder.iterdir()):
+            folder.rmdir()
+        raise
     data["output_dir"] = str(folder)
     ui.result(data, lambda d: _fit_text(d) + f"\n  view {folder / 'surface.png'}; "
                                             f"next: trispline check {folder / 'surface.npz'}")
@@ -135,37 +230,53 @@ def cmd_demo(args: argparse.Namespace, ui: UI) -> int:
 # ============================================================================ the fit
 @dataclasses.dataclass
 class _Input:
-    """The mesh to fit, after loading and validation."""
+    """The mesh to fit, after loading, repair and validation."""
 
     V: np.ndarray  # (nv, 3)
     F: np.ndarray  # (nf, 3)
-    uv: np.ndarray | None  # (nv, 2) domain for fit_surface: the file's vt, with --param uv only
+    uv: np.ndarray | None  # (nv, 2) domain for the approximation: the file's vt, with --param uv only
     source: str  # the file name, or a description of the built-in scan
-    kept: np.ndarray | None  # (nv,) index in the file of each vertex, when vertices were dropped
+    kept: np.ndarray | None  # (nv,) index in the file of each vertex, when vertices were dropped or split
+    parameterization: Any = None  # the Parameterization of the file's vt (--param uv), else made by _parameterize
+    repair: dict | None = None  # --repair: changes and messages
+
+
+def _weights(args: argparse.Namespace) -> FitWeights:
+    """The FitWeights of the weight flags (checked before any work)."""
+    given = {name: getattr(args, f"w_{name}") for name, _ in WEIGHT_FIELDS
+             if getattr(args, f"w_{name}", None) is not None}
+    return FitWeights(**given)
 
 
 def _fit(args: argparse.Namespace, ui: UI, outputs: dict[str, Path | None],
          extra_writes: Callable[[Any, Any], None] | None = None) -> dict:
-    """Shared body of ``fit`` and ``demo``: load, validate, fit, write everything atomically."""
+    """Shared body of ``fit`` and ``demo``: load, validate, parameterize, fit, write everything atomically."""
+    weights = _weights(args)
     mesh = _load_input(args, ui)
-    result, weights, fit_seconds = _solve(args, ui, mesh)
-    surface = _with_fit_extras(result, weights, args.param, mesh.source, mesh.kept)
+    _check_output_sizes(args, mesh, outputs)
+    p, param_seconds = _parameterize(args, ui, mesh)
+    result, fit_seconds = _solve(args, ui, mesh, p, weights)
+    surface = _with_fit_extras(result, weights, args.param, mesh.source, mesh.kept, parameterization=p,
+                               data=mesh.V)
     written = _write(args, ui, surface, outputs, extra_writes, (mesh.V, mesh.F))
+    ex = surface.extras
     return dict(
         command=args.command, input=mesh.source, outputs=[str(p) for p in written],
         vertices=int(mesh.V.shape[0]), faces=int(mesh.F.shape[0]), patches=int(surface.n_faces),
-        param=args.param,
-        parameterization_repaired=getattr(result.parameterization, "repaired", None),
-        weights=dataclasses.asdict(weights), energies=result.energies, iterations=int(result.iterations),
-        converged=bool(result.converged), c1_residual=float(result.c1_residual),
+        param=args.param, param_chosen=p.method, param_reason=p.reason, distortion=p.distortion,
+        parameterization_repaired=p.repaired, repair=mesh.repair,
+        weights=dataclasses.asdict(weights), energies=result.energies,
+        energies_normalised=dict(zip(ex["fit_energy_names"].tolist(), ex["fit_energies_normalised"].tolist())),
+        iterations=int(result.iterations), converged=bool(result.converged), c1_residual=float(result.c1_residual),
         max_interpolation_error=float(result.max_interpolation_error),
-        timings=dict(result.timings), seconds=fit_seconds,
+        timings={**dict(result.timings), "parameterize": param_seconds}, seconds=fit_seconds + param_seconds,
         source_vertex_index=None if mesh.kept is None else "stored in the surface file",
+        **_export_sizes(args, surface, outputs),
     )
 
 
 def _load_input(args: argparse.Namespace, ui: UI) -> _Input:
-    """Read (or generate) the mesh and validate it, before JAX starts."""
+    """Read (or generate) the mesh, repair it (``--repair``) and validate it, before JAX starts."""
     from trispline.param import parameterize, validate_mesh
 
     kept: np.ndarray | None = None
@@ -183,6 +294,9 @@ def _load_input(args: argparse.Namespace, ui: UI) -> _Input:
         source = str(args.mesh)
         if md.dropped:
             kept = md.kept
+    repair = None
+    if getattr(args, "repair", False):
+        V, F, kept, file_uv, repair = _repair(ui, V, F, kept, file_uv, source)
     vm = validate_mesh(V, F, keep_largest=args.keep_largest)
     for m in vm.messages:
         ui.warn(m)
@@ -191,17 +305,96 @@ def _load_input(args: argparse.Namespace, ui: UI) -> _Input:
         kept = vm.kept if kept is None else kept[vm.kept]
         file_uv = None if file_uv is None else file_uv[vm.kept]
         ui.warn(f"vertices were renumbered (the surface's source_vertex_index maps them to {source})")
-    uv = None
+    uv, p = None, None
     if args.param == "uv" and file_uv is not None:
         p = parameterize(V, F, method="uv", uv=file_uv)
         uv, F = p.uv, p.faces
-        for m in p.messages:
+        _announce(ui, p)
+    return _Input(V=V, F=F, uv=uv, source=source, kept=kept, parameterization=p, repair=repair)
+
+
+def _repair(ui: UI, V: np.ndarray, F: np.ndarray, kept: np.ndarray | None, file_uv: np.ndarray | None,
+            source: str) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None, dict]:
+    """``--repair``: :func:`trispline.param.repair_mesh`, saying what changed; the vertex map composed."""
+    from trispline.param import repair_mesh
+
+    r = repair_mesh(V, F, keep_largest=True)
+    for m in r.messages:
+        ui.warn(f"repair: {m}")
+    if not r.changed:
+        return V, F, kept, file_uv, dict(changes=r.changes, messages=["nothing to repair"])
+    src = r.source_vertex_index
+    kept = src if kept is None else np.asarray(kept)[src]
+    ui.warn(f"vertices were renumbered by the repair (the surface's source_vertex_index maps them to {source})")
+    return r.V, r.F, kept, None if file_uv is None else file_uv[src], dict(changes=r.changes, messages=r.messages)
+
+
+def _announce(ui: UI, p: Any) -> None:
+    """The parameterization's messages and its distortion warning (auto's choice and reason are in the summary)."""
+    for m in p.messages:
+        if m != p.reason:
             ui.warn(m)
-    return _Input(V=V, F=F, uv=uv, source=source, kept=kept)
+    if p.warning:
+        ui.warn(p.warning)
 
 
-def _solve(args: argparse.Namespace, ui: UI, mesh: _Input) -> tuple[Any, Any, float]:
-    """``(FitResult, FitWeights, seconds)``: JAX in float64, then ``fit_surface`` with a progress bar."""
+def _parameterize(args: argparse.Namespace, ui: UI, mesh: _Input) -> tuple[Any, float]:
+    """``(Parameterization, seconds)``: the one of ``--param uv`` made when loading, else ``--param``'s map."""
+    if mesh.parameterization is not None:
+        _refuse_slivers(mesh.parameterization.uv, mesh.parameterization.faces)
+        return mesh.parameterization, 0.0
+    from trispline.param import parameterize
+
+    t0 = time.perf_counter()
+    p = parameterize(mesh.V, mesh.F, method=args.param)
+    _announce(ui, p)
+    _refuse_slivers(p.uv, p.faces)
+    return p, time.perf_counter() - t0
+
+
+def _refuse_slivers(uv: np.ndarray, faces: np.ndarray) -> None:
+    """UsageError naming the domain triangles whose aspect (longest edge / height) exceeds
+    :data:`MAX_DOMAIN_ASPECT`; ``uv (nv, 2)``, ``faces (nf, 3)``."""
+    from trispline.spline.errors import first_few
+    from trispline.spline.topology import signed_areas
+
+    P = uv[faces]  # (nf, 3, 2)
+    longest = (np.diff(P[:, [0, 1, 2, 0]], axis=1) ** 2).sum(2).max(1)  # squared
+    aspect = longest / np.maximum(2.0 * np.abs(signed_areas(uv, faces)), np.finfo(float).tiny)
+    bad = np.flatnonzero(aspect > MAX_DOMAIN_ASPECT)
+    if bad.size:
+        raise UsageError(f"{bad.size} triangles are slivers too thin to fit (longest edge / height up to "
+                         f"{aspect.max():.3g}, at most {MAX_DOMAIN_ASPECT:g}): faces {first_few(bad)}; "
+                         "collapse or remove them")
+
+
+def _check_output_sizes(args: argparse.Namespace, mesh: _Input, outputs: dict[str, Path | None]) -> None:
+    """Refuse (ResourceError, exit 2) a --mesh-out tessellation that cannot fit in memory, before the fit."""
+    if outputs.get("mesh") is None:
+        return
+    from trispline.spline.tessellate import require_tessellation_memory
+
+    from ..io.sizes import export_resolution
+
+    F = np.sort(mesh.F, axis=1)
+    edges = np.unique(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [0, 2]]]), axis=0).shape[0]
+    nf = F.shape[0]
+    r = export_resolution(nf) if args.resolution is None else args.resolution
+    require_tessellation_memory(mesh.V.shape[0], edges, nf, r)
+
+
+def _export_sizes(args: argparse.Namespace, surface: Any, outputs: dict[str, Path | None]) -> dict[str, Any]:
+    """``mesh_resolution`` and ``estimated_bytes`` of the mesh output, when there is one."""
+    from ..io.sizes import estimate_export_bytes, export_resolution
+
+    if outputs.get("mesh") is None:
+        return {}
+    r = export_resolution(surface.n_faces) if args.resolution is None else args.resolution
+    return dict(mesh_resolution=r, estimated_bytes=estimate_export_bytes(surface, outputs["mesh"], r))
+
+
+def _solve(args: argparse.Namespace, ui: UI, mesh: _Input, p: Any, weights: FitWeights) -> tuple[Any, float]:
+    """``(FitResult, seconds)``: JAX in float64, then ``fit_surface`` on ``p``'s domain with a progress bar."""
     with ui.stages(("start JAX",) + FIT_STAGES, "fit") as bar:
         import jax
 
@@ -209,17 +402,14 @@ def _solve(args: argparse.Namespace, ui: UI, mesh: _Input) -> tuple[Any, Any, fl
         from ..pipeline import fit_surface
 
         bar.done()
-        given = {name: getattr(args, f"w_{name}") for name, _ in WEIGHT_FIELDS
-                 if getattr(args, f"w_{name}", None) is not None}
-        weights = FitWeights(**given)
         t0 = time.perf_counter()
         try:
-            result = fit_surface(mesh.V, mesh.F, uv=mesh.uv, param=args.param, weights=weights,
-                                 max_steps=args.max_steps, progress=_progress(bar))
+            result = fit_surface(mesh.V, p.faces, uv=p.uv, weights=weights, max_steps=args.max_steps,
+                                 progress=_progress(bar))
         except FitError as exc:
             raise CommandFailed(f"{exc} (try a larger --max-steps or other weights)") from exc
         seconds = time.perf_counter() - t0
-    return result, weights, seconds
+    return result, seconds
 
 
 def _progress(bar: Any) -> Callable[..., None]:
@@ -236,17 +426,25 @@ def _progress(bar: Any) -> Callable[..., None]:
 
 def _write(args: argparse.Namespace, ui: UI, surface: Any, outputs: dict[str, Path | None],
            extra_writes: Callable[[Any, Any], None] | None, VF: tuple[np.ndarray, np.ndarray]) -> list[Path]:
-    """Write the surface and the requested extras, all or nothing; returns the files written."""
+    """Write the surface and the requested extras, all or nothing; returns the files written.
+
+    The mesh gets ``--resolution`` (None: :func:`~trispline.fit.io.sizes.export_resolution`, with
+    the size warning of :func:`~trispline.fit.io.export.export_surface`); the picture is drawn by
+    the one renderer (as ``trispline render`` would, shaded, dated caption) at ``min(--resolution, 6)``.
+    """
     from trispline.spline.util.atomic import AtomicOutputs
 
     from ..io.export import export_control_net, export_surface
+    from ..render.caption import caption_text
 
     with ui.stages(("write",), "write"), AtomicOutputs() as out:
         surface.save(out.path(outputs["surface"]))
         if outputs.get("mesh") is not None:
             export_surface(surface, outputs["mesh"], resolution=args.resolution, outputs=out)
         if outputs.get("image") is not None:
-            export_surface(surface, outputs["image"], resolution=min(args.resolution, 6), outputs=out)
+            r = None if args.resolution is None else min(args.resolution, 6)
+            export_surface(surface, outputs["image"], resolution=r, outputs=out,
+                           caption=caption_text(getattr(args, "mesh", None)))
         if outputs.get("control_net") is not None:
             export_control_net(surface, outputs["control_net"], outputs=out)
         if extra_writes is not None:
@@ -254,8 +452,26 @@ def _write(args: argparse.Namespace, ui: UI, surface: Any, outputs: dict[str, Pa
         return out.targets
 
 
-def _with_fit_extras(result: Any, weights: Any, param: str, source: str, kept: np.ndarray | None) -> Any:
-    """The fitted surface with the fit's settings and energies as optional file keys."""
+def _centred_ctrl(result: Any, data: np.ndarray) -> np.ndarray:
+    """The control points ``(nf, 21, 3)`` computed relative to the data's centre and moved back:
+    for data far from the origin the net is then C1 up to the rounding of its stored
+    coordinates (the C1 conditions are affine, but evaluating them on coordinates of 1e6 loses
+    the digits of a 10 m tile); ``result.ctrl`` itself when the data are near the origin."""
+    centre = 0.5 * (data.min(0) + data.max(0))
+    if not np.abs(centre).max() > np.ptp(data, axis=0).max():
+        return np.asarray(result.ctrl)
+    from trispline.spline.index import CORNER
+
+    ctrl = result.space.control_points(result.free - centre) + centre
+    ctrl[:, CORNER] = np.asarray(result.ctrl)[:, CORNER]  # the data vertices themselves, not re-rounded
+    return ctrl
+
+
+def _with_fit_extras(result: Any, weights: Any, param: str, source: str, kept: np.ndarray | None, *,
+                     parameterization: Any = None, data: np.ndarray | None = None) -> Any:
+    """The fitted surface with the fit's settings and energies as optional file keys; with the
+    ``parameterization`` the fit used, on the user's domain (:func:`trispline.param.user_domain`)
+    with its normalisation stored, and with the ``data`` vertices, its net centred (:func:`_centred_ctrl`)."""
     from trispline.spline.surface import SplineSurface
 
     extras = dict(result.surface.extras) if result.surface is not None else {}
@@ -272,15 +488,32 @@ def _with_fit_extras(result: Any, weights: Any, param: str, source: str, kept: n
     )
     if kept is not None:
         extras["source_vertex_index"] = np.asarray(kept, np.int64)
-    return SplineSurface(result.uv, result.faces, result.ctrl, extras=extras)
+    uv, faces, ctrl = result.uv, result.faces, result.ctrl
+    if data is not None:
+        from ..energy import normalised_energies
+
+        ctrl = _centred_ctrl(result, data)
+        extras["fit_energies_normalised"] = np.array(list(normalised_energies(result.energies, data, uv, faces)
+                                                          .values()))
+    if parameterization is not None:
+        from trispline.param import user_domain
+
+        uv, faces, ctrl = user_domain(parameterization, ctrl, uv)
+        extras.update(parameterization.transform.as_extras(), fit_param_chosen=np.array(parameterization.method))
+    return SplineSurface(uv, faces, ctrl, extras=extras)
 
 
 def _fit_text(d: dict) -> str:
-    e = ", ".join(f"{k} {fmt(v)}" for k, v in d["energies"].items())
+    e = ", ".join(f"{k} {fmt(v)}" for k, v in d["energies_normalised"].items())
+    chosen = d["param_chosen"] if d["param_chosen"] == d["param"] else f"{d['param']}: {d['param_chosen']}"
+    dist = d["distortion"]
     return "\n".join([
         f"fitted {d['input']}: {d['vertices']} vertices, {d['patches']} quintic patches "
-        f"(param {d['param']}{', repaired by ' + d['parameterization_repaired'] if d['parameterization_repaired'] else ''})",
-        f"  energies: {e}",
+        f"(param {chosen}{', repaired by ' + d['parameterization_repaired'] if d['parameterization_repaired'] else ''}"
+        f"; angle distortion max {fmt(float(dist['angle_max']))}, area distortion max {fmt(float(dist['area_max']))})",
+        *([f"  {d['param_reason']}"] if d["param_reason"] else []),
+        *([f"  repair: {'; '.join(d['repair']['messages'])}"] if d["repair"] else []),
+        f"  energies (unit bounding-box diagonal, per unit domain area): {e}",
         f"  Gauss-Newton steps {d['iterations']}, C1 residual {fmt(d['c1_residual'])} (relative), "
         f"max interpolation error {fmt(d['max_interpolation_error'])}, {d['seconds']:.1f} s",
         "  time: " + ", ".join(f"{k} {v:.2f} s" for k, v in d["timings"].items()),

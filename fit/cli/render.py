@@ -114,7 +114,7 @@ def run(args: argparse.Namespace, ui: UI | None = None) -> int:
     from ..render import caption_text, draw, write_png
 
     ui = ui if ui is not None else UI(args)
-    out = check_output(args.output, (".png",), "the picture")
+    out = check_output(args.output, (".png",), "the picture", [args.surface, args.mesh])
     if args.mesh is not None and args.mode != "deviation":
         ui.warn(f"--mesh is used by --mode deviation only; ignored for --mode {args.mode}")
     surface = load_surface(args.surface)

@@ -24,12 +24,14 @@ from .context import TermContext, frame_ids, term_context, vertex_areas
 from .data import DataPoints, as_data_points
 from .local import blended_targets
 from .normal import NormalParts, normal_equations
-from .problem import Problem, control_points, energies, energy_units, residuals, setup_problem
+from .problem import (Problem, control_points, energies, energy_units, normalised_energies, residuals,
+                      setup_problem)
 from .terms import MODULES, TERMS, is_nonlinear, normal_parts, setup_terms, term_energies, term_residuals
 
 __all__ = [
     "TERMS", "MODULES", "TermContext", "term_context", "frame_ids", "vertex_areas", "setup_terms",
     "term_residuals", "term_energies", "normal_parts", "is_nonlinear", "NormalParts",
     "normal_equations", "Problem", "setup_problem", "control_points", "residuals", "energies", "energy_units",
+    "normalised_energies",
     "DataPoints", "as_data_points", "bend_weights", "gram", "thin_plate_gram", "blended_targets",
 ]

@@ -16,6 +16,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from trispline.spline.propagation import SplineSpace
+from trispline.spline.topology import signed_areas
 from trispline.spline.util.memory import index_dtype
 
 from ..weights import FitWeights
@@ -26,7 +27,8 @@ from ..solve import symmetric_from_upper
 from .normal import normal_equations
 from .terms import MODULES, is_nonlinear, normal_parts, setup_terms, term_residuals
 
-__all__ = ["Problem", "setup_problem", "control_points", "residuals", "energies", "energy_units"]
+__all__ = ["Problem", "setup_problem", "control_points", "residuals", "energies", "energy_units",
+           "normalised_energies"]
 
 
 @dataclass
@@ -119,3 +121,16 @@ def energies(x: jax.Array, args: dict) -> dict[str, jax.Array]:
 def energy_units(size: float) -> dict[str, float]:
     """Factor per term turning energies of data scaled by ``1 / size`` back into data units."""
     return {m.NAME: size ** m.SCALE_EXPONENT for m in MODULES}
+
+
+def normalised_energies(energies: dict[str, float], V: np.ndarray, uv: np.ndarray, faces: np.ndarray
+                        ) -> dict[str, float]:
+    """Each term's energy (data units) as for the data scaled to a unit bounding-box diagonal, per
+    unit area of the uv domain, so that numbers compare across meshes of any size and density.
+
+    ``V (nv, 3)`` the data, ``uv (nv, 2)`` and ``faces (nf, 3)`` the domain the fit used.
+    """
+    diag = float(np.linalg.norm(np.ptp(V, axis=0))) or 1.0
+    area = float(np.abs(signed_areas(uv, faces)).sum()) or 1.0
+    units = energy_units(diag)
+    return {k: float(v) / units.get(k, 1.0) / area for k, v in energies.items()}

@@ -32,10 +32,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from trispline.spline.index import DEGREE, EXPONENTS, NCTRL, lattice_triangles
-from trispline.spline.tessellate import Tessellation
+from trispline.spline.tessellate import Tessellation, require_tessellation_memory
 from trispline.spline.util.atomic import AtomicOutputs, write_with
 
-from ..errors import ExportFormatError
+from ..errors import ExportFormatError, LargeExportWarning
 from .formats import CAD_FORMATS, EXPORT_FORMATS, IMAGE_FORMATS, MESH_FORMATS, SURFACE_FORMATS, check_export_path
 from .sizes import estimate_export_bytes, export_resolution
 
@@ -49,10 +49,6 @@ __all__ = [
     "ExportFormatError", "LargeExportWarning", "check_export_path", "surface_mesh", "control_net",
     "control_net_mesh", "export_mesh", "export_surface", "export_control_net",
 ]
-
-
-class LargeExportWarning(UserWarning):
-    """A mesh export is estimated (before it is written) above :data:`LARGE_EXPORT_BYTES`."""
 
 
 #: Exports estimated above this many bytes are announced with a LargeExportWarning.
@@ -204,6 +200,8 @@ def export_surface(
     suffix = check_export_path(path)
     if suffix in MESH_FORMATS:
         r = export_resolution(surface.n_faces) if resolution is None else int(resolution)
+        tri = surface.triangulation  # a tessellation beyond the memory is refused before the size warning
+        require_tessellation_memory(tri.n_vertices, tri.n_edges, tri.n_faces, r, np.asarray(surface.ctrl).shape[2])
         size = estimate_export_bytes(surface, path, r)
         if size > LARGE_EXPORT_BYTES:
             warnings.warn(f"{Path(path).name} will be about {size / 1e6:.0f} MB ({surface.n_faces} patches at "

@@ -447,3 +447,173 @@ def test_fit_that_does_not_converge_is_exit_1_and_writes_nothing(tmp_path):
     assert lines[-1].startswith("trispline: error: the fit did not converge"), r.stderr
     assert "Traceback" not in r.stderr and r.stdout == ""
     only_inputs(tmp_path)
+
+
+# ===================================================== issue 18/20: the fit's options, in-process
+def main_json(capsys, *args) -> dict:
+    """``trispline ARGS --json --quiet`` in-process; the parsed JSON (asserts exit 0)."""
+    capsys.readouterr()
+    rc = cli.main([str(a) for a in args] + ["--json", "--quiet"])
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    return json.loads(out)
+
+
+def test_help_says_every_default(capsys):
+    """Every option that takes a value says its default (or that it is required) in --help;
+    every weight flag its FitWeights default and a meaning (approximation options: their own module)."""
+    import argparse
+
+    from trispline.fit.cli.reference import _subparsers
+    from trispline.fit.weights import FitWeights
+
+    for name, parser in _subparsers(cli.build_parser()).items():
+        for group in parser._action_groups:
+            if group.title.startswith("approximation"):
+                continue
+            for a in group._group_actions:
+                if not a.option_strings or a.nargs == 0 or isinstance(a, argparse._HelpAction):
+                    continue
+                text = parser._get_formatter()._expand_help(a)
+                assert "default" in text or "required" in text, (name, a.option_strings, text)
+    fit_parser = _subparsers(cli.build_parser())["fit"]
+    for f in dataclasses.fields(FitWeights):
+        flag = "--" + f.name.replace("_", "-")
+        action = next(a for a in fit_parser._actions if flag in a.option_strings)
+        assert action.help == f"{cli.fit.WEIGHT_HELP[f.name]} (default {getattr(FitWeights(), f.name):g})"
+
+
+def test_docs_cli_md_is_the_generated_reference():
+    """docs/cli.md is the parser's reference (regenerate: python -m trispline.fit.cli.reference > docs/cli.md)."""
+    from trispline.fit.cli.reference import cli_reference
+
+    page = Path(__file__).resolve().parents[2] / "docs" / "cli.md"
+    assert page.read_text() == cli_reference()
+    assert "## `trispline render`" in page.read_text() and "--blend-power" in page.read_text()
+
+
+def test_demo_offers_only_what_it_uses():
+    demo = cli.build_parser()._subparsers._group_actions[0].choices["demo"]
+    flags = {s for a in demo._actions for s in a.option_strings}
+    assert not flags & {"--mesh-out", "--image", "--control-net"}
+    assert {"--resolution", "--param", "--repair", "--bend"} <= flags
+
+
+def test_fit_param_uv_evaluates_at_the_users_xy(tmp_path, capsys):
+    """A height field fitted with --param uv: the file's uv is exactly (x, y), the surface there is z."""
+    from scipy.spatial import Delaunay
+
+    xy = np.random.default_rng(5).uniform([300.0, -20.0], [340.0, 10.0], (200, 2))  # not a unit domain
+    F = Delaunay(xy).simplices
+    V = np.column_stack([xy, np.sin(xy[:, 0] / 7) * np.cos(xy[:, 1] / 5)])
+    mesh = write_obj(tmp_path / "h.obj", V, F)
+    d = main_json(capsys, "fit", mesh, "-o", tmp_path / "s.npz", "--param", "uv")
+    assert d["param_chosen"] == "uv"
+    s = SplineSurface.load(tmp_path / "s.npz")
+    np.testing.assert_array_equal(s.uv, V[:, :2])
+    assert {"uv_centre", "uv_scale", "uv_mirrored"} <= set(s.extras)
+    inside = V[F, :2].mean(1)  # (nf, 2): the triangles' centroids, between the vertices
+    P = s.evaluate(*s.locate(inside))
+    np.testing.assert_allclose(P[:, :2], inside, rtol=0, atol=1e-9)  # x(u, v) = u, y(u, v) = v
+    np.testing.assert_allclose(s.evaluate(*s.locate(V[:, :2])), V, rtol=0, atol=1e-9)
+
+
+def test_fit_repair_maps_back_to_the_input(tmp_path, capsys):
+    from trispline.param.testing import broken_scan
+
+    V, F, expected = broken_scan(300)
+    mesh = write_obj(tmp_path / "broken.obj", V, F)
+    r = run("fit", mesh, "-o", tmp_path / "x.npz")
+    assert r.returncode == 2 and "bowtie" in r.stderr  # refused without --repair
+    capsys.readouterr()
+    rc = cli.main(["fit", str(mesh), "-o", str(tmp_path / "s.npz"), "--repair", "--json"])
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    d = json.loads(out)
+    assert "repair: " in err and d["repair"]["changes"]["split_vertices"] >= expected["bowtie_vertices"]
+    s = SplineSurface.load(tmp_path / "s.npz")
+    src = np.asarray(s.extras["source_vertex_index"])
+    corners = np.empty((s.triangulation.n_vertices, 3))
+    corners[s.faces.ravel()] = s.ctrl[:, CORNER].reshape(-1, 3)
+    np.testing.assert_array_equal(corners, V[src])  # every surface vertex is an input vertex
+
+
+def test_fit_param_auto_reports_choice_and_distortion(tmp_path, capsys):
+    from trispline.param.testing import nearly_closed
+
+    V, F = nearly_closed(600, seed=1)
+    mesh = write_obj(tmp_path / "closed.obj", V, F)
+    d = main_json(capsys, "fit", mesh, "-o", tmp_path / "s.npz", "--param", "auto")
+    assert d["param"] == "auto" and d["param_chosen"] in ("lscm", "harmonic", "slim")
+    assert d["param_reason"].startswith("auto chose " + d["param_chosen"])
+    assert d["distortion"]["flipped_before_repair"] == 0 or d["param_chosen"] != "lscm"
+    assert {"angle_max", "area_max", "score"} <= set(d["distortion"])
+    assert SplineSurface.load(tmp_path / "s.npz").extras["fit_param_chosen"] == d["param_chosen"]
+    info = main_json(capsys, "info", mesh, "--param", "auto")
+    assert info["distortion"]["method"] == d["param_chosen"]
+
+
+@pytest.mark.parametrize("case", ["utm tile", "offset 1e6", "offset 1e9", "tiny at 1e9"])
+def test_far_from_the_origin_fits_pass_their_own_check(tmp_path, capsys, case):
+    """A UTM terrain tile (x ~ 5e5, y ~ 5e6, 20 m wide) and meshes offset by 1e6 and 1e9 fit, and
+    ``check`` of the output passes: residuals measured relative to the centre, against the
+    tolerance plus the stored coordinates' own rounding (which at 1e9 is all a file can hold)."""
+    from trispline.param.testing import bumpy_disk
+
+    V, F = bumpy_disk(120)
+    offset, scale = {"utm tile": ((5e5, 5e6, 120.0), 10.0), "offset 1e6": ((1e6,) * 3, 1.0),
+                     "offset 1e9": ((1e9,) * 3, 1.0), "tiny at 1e9": ((1e9,) * 3, 1e-3)}[case]
+    mesh = write_obj(tmp_path / "far.obj", V * scale + np.array(offset), F)
+    d = main_json(capsys, "fit", mesh, "-o", tmp_path / "s.npz")
+    assert d["max_interpolation_error"] == 0.0
+    c = main_json(capsys, "check", tmp_path / "s.npz")
+    assert c["ok"] and c["failed"] == []
+    floor = c["precision_floor"]
+    for k, v in c["relative_residuals"].items():
+        assert v <= 1e-9 + 8 * floor[k]
+    if case == "utm tile":  # a real tile keeps nearly all its digits: the floor is below the tolerance
+        assert c["relative_residuals"]["c1_algebraic"] <= 1e-9 and floor["c1_algebraic"] < 1e-9
+
+
+def test_check_still_fails_a_broken_surface_far_from_the_origin(tmp_path, capsys):
+    s = random_c1_surface(40, holes=0, seed=2)
+    ctrl = np.array(s.ctrl) + 1e6
+    ctrl[3, 10] += 1e-4 * np.ptp(ctrl.reshape(-1, 3), axis=0).max()
+    SplineSurface(s.uv, s.faces, ctrl).save(tmp_path / "b.npz")
+    capsys.readouterr()
+    assert cli.main(["check", str(tmp_path / "b.npz"), "--quiet"]) == 3
+
+
+def test_fit_json_sizes_energies_and_picture(tmp_path, capsys, monkeypatch):
+    """--json reports the mesh output's estimated size and normalised energies; those of one mesh
+    at two scales agree (the data-unit energies do not); --image goes through the one renderer."""
+    from trispline.fit.io.sizes import estimate_export_bytes, export_resolution
+    from trispline.param.testing import bumpy_disk
+
+    V, F = bumpy_disk(80)
+    drawn = []
+    import trispline.fit.render as render
+
+    real = render.draw
+
+    def spy(*args, **kwargs):
+        drawn.append(kwargs)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(render, "draw", spy)
+    res = {}
+    for scale in (1.0, 1000.0):
+        mesh = write_obj(tmp_path / f"m{scale:g}.obj", V * scale, F)
+        out = tmp_path / f"s{scale:g}"
+        res[scale] = main_json(capsys, "fit", mesh, "-o", f"{out}.npz", "--mesh-out", f"{out}.obj",
+                               "--image", f"{out}.png")
+    d = res[1.0]
+    s = SplineSurface.load(tmp_path / "s1.npz")
+    assert d["mesh_resolution"] == export_resolution(s.n_faces)
+    assert d["estimated_bytes"] == estimate_export_bytes(s, tmp_path / "s1.obj", d["mesh_resolution"])
+    assert abs(d["estimated_bytes"] / (tmp_path / "s1.obj").stat().st_size - 1) < 0.05
+    for k, v in d["energies_normalised"].items():
+        np.testing.assert_allclose(res[1000.0]["energies_normalised"][k], v, rtol=1e-6, atol=1e-12)
+    assert res[1000.0]["energies"]["bend"] > 1e5 * d["energies"]["bend"]
+    assert len(drawn) == 2 and drawn[0]["resolution"] is None and drawn[0]["caption"].endswith(
+        f"m1.obj, trispline {cli.common.version()}")
