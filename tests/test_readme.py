@@ -3,10 +3,13 @@
 * every relative link and picture exists;
 * every ``trispline ...`` command line it shows is accepted by the real parser;
 * its Python snippets run (on the built-in example scan);
+* its command synopsis is the parser's usage of every subcommand
+  (``python tests/test_readme.py --update`` rewrites it);
 * it stays short (issue 20: under 250 lines) and cites no file a clone lacks.
 """
 from __future__ import annotations
 
+import os
 import re
 import shlex
 import subprocess
@@ -16,10 +19,35 @@ from pathlib import Path
 import pytest
 
 from trispline.fit.cli import build_parser
+from trispline.fit.cli.reference import _subparsers
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 TEXT = README.read_text()
+
+
+SYNOPSIS = re.compile(r"(<!-- cli-synopsis:start -->\n)(.*?)(<!-- cli-synopsis:end -->)", re.S)
+
+
+def synopsis() -> str:
+    """The usage lines of every subcommand at 96 columns, in a fenced block."""
+    old = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = "96"
+    try:
+        usages = [sp.format_usage().replace(" [-h]", "").rstrip().replace("\n       ", "\n")[len("usage: "):]
+                  for sp in _subparsers(build_parser()).values()]
+    finally:
+        if old is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = old
+    return "```\n" + "\n".join(usages) + "\n```\n"
+
+
+def test_the_synopsis_is_the_parsers_usage():
+    block = SYNOPSIS.search(TEXT)
+    assert block is not None
+    assert block.group(2) == synopsis(), "run: python tests/test_readme.py --update"
 
 
 def _commands() -> list[str]:
@@ -64,3 +92,7 @@ def test_the_python_snippets_run(tmp_path):
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=tmp_path)
     assert run.returncode == 0, run.stderr
     assert (tmp_path / "scan.npz").is_file()
+
+
+if __name__ == "__main__" and sys.argv[1:] == ["--update"]:
+    README.write_text(SYNOPSIS.sub(lambda m: m.group(1) + synopsis() + m.group(3), TEXT))
