@@ -56,6 +56,10 @@ MAX_BLEND_POWER = 16.0
 #: the fit: at 1e7 the fit's normal matrix is no longer positive definite in float64 (measured:
 #: a sliver of height 1e-6 on a unit base fits with C1 residual 1e-16, one of 1e-7 fails).
 MAX_DOMAIN_ASPECT = 1e6
+#: Data whose float64 coordinates keep less than this fraction of their extent (``eps * max|V| /
+#: extent``: 5e-11 for a 20 m tile at UTM's 5e6 m) get a warning: the stored net's continuity is
+#: only known to about 100 times that (the check's precision floor).
+FAR_PRECISION = 1e-11
 #: The meaning of each weight flag, as ``--help`` says it (docs/fit.md has the details).
 WEIGHT_HELP = {
     "bend": "thin-plate bending over the domain: smooths the surface between the vertices",
@@ -253,6 +257,7 @@ def _fit(args: argparse.Namespace, ui: UI, outputs: dict[str, Path | None],
     """Shared body of ``fit`` and ``demo``: load, validate, parameterize, fit, write everything atomically."""
     weights = _weights(args)
     mesh = _load_input(args, ui)
+    _warn_far_from_origin(ui, mesh.V)
     _check_output_sizes(args, mesh, outputs)
     p, param_seconds = _parameterize(args, ui, mesh)
     result, fit_seconds = _solve(args, ui, mesh, p, weights)
@@ -366,6 +371,16 @@ def _refuse_slivers(uv: np.ndarray, faces: np.ndarray) -> None:
         raise UsageError(f"{bad.size} triangles are slivers too thin to fit (longest edge / height up to "
                          f"{aspect.max():.3g}, at most {MAX_DOMAIN_ASPECT:g}): faces {first_few(bad)}; "
                          "collapse or remove them")
+
+
+def _warn_far_from_origin(ui: UI, V: np.ndarray) -> None:
+    """Warn when ``V (nv, 3)`` lies so far from the origin that float64 keeps few digits of its extent."""
+    extent = float(np.ptp(V, axis=0).max()) if V.size else 0.0
+    far = float(np.abs(V).max()) if V.size else 0.0
+    if extent > 0 and np.finfo(float).eps * far / extent > FAR_PRECISION:
+        ui.warn(f"the mesh lies {far:.3g} from the origin with an extent of {extent:.3g}: its coordinates keep "
+                f"about {np.finfo(float).eps * far / extent:.1g} of the extent, so the surface file is C1 only to "
+                "about 100 times that (trispline check allows for it); subtract an offset for more digits")
 
 
 def _check_output_sizes(args: argparse.Namespace, mesh: _Input, outputs: dict[str, Path | None]) -> None:
