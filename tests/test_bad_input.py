@@ -16,7 +16,6 @@ your own below the last one with the same helpers.
 from __future__ import annotations
 
 import io
-import json
 import os
 import re
 import signal
