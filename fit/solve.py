@@ -244,6 +244,10 @@ class SparseCholesky:
         import pypardiso
 
         self._upper = U
+        # one-based int32 indices, converted once: pypardiso's own call converts them on every
+        # phase (two copies of the column indices, 84 MB at 100k faces, during each solve)
+        self._ia = np.add(U.indptr, 1, dtype=np.int32, casting="unsafe")
+        self._ja = np.add(U.indices, 1, dtype=np.int32, casting="unsafe")
         self._solver = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
         # PARDISO's defaults for the type (pypardiso leaves iparm[0] = 0, which makes PARDISO
         # ignore every other setting), then no iterative refinement in its solves: two steps
@@ -266,18 +270,39 @@ class SparseCholesky:
             raise np.linalg.LinAlgError(f"the normal matrix is not positive definite ({exc})") from exc
 
     def _pardiso(self, phase: int, b: np.ndarray | None = None) -> np.ndarray:
-        """One PARDISO phase on the stored upper triangle; ``b (n, k)`` Fortran order for phase 33."""
-        self._solver.set_phase(phase)
-        return self._solver._call_pardiso(self._upper, np.zeros((self.n, 1)) if b is None else b)
+        """One PARDISO phase on the stored upper triangle; ``b (n, k)`` Fortran order for phase 33.
+
+        MKL's ``pardiso`` called directly with the indices converted in the analysis
+        (pypardiso's ``_call_pardiso`` makes them again each time).
+        """
+        import pypardiso
+
+        s, U = self._solver, self._upper
+        b = np.zeros((self.n, 1)) if b is None else b
+        x = np.zeros_like(b)
+        err = ctypes.c_int32(0)
+        i32, f64 = ctypes.POINTER(ctypes.c_int32), ctypes.POINTER(ctypes.c_double)
+        one = ctypes.byref(ctypes.c_int32(1))
+        s._mkl_pardiso(s.pt.ctypes.data_as(ctypes.POINTER(s._pt_type[0])), one, one,  # maxfct, mnum
+                       ctypes.byref(ctypes.c_int32(s.mtype)), ctypes.byref(ctypes.c_int32(phase)),
+                       ctypes.byref(ctypes.c_int32(self.n)), U.data.ctypes.data_as(f64),
+                       self._ia.ctypes.data_as(i32), self._ja.ctypes.data_as(i32), s.perm.ctypes.data_as(i32),
+                       ctypes.byref(ctypes.c_int32(b.shape[1] if b.ndim == 2 else 1)),
+                       s.iparm.ctypes.data_as(i32), ctypes.byref(ctypes.c_int32(0)),  # msglvl: silent
+                       b.ctypes.data_as(f64), x.ctypes.data_as(f64), ctypes.byref(err))
+        if err.value != 0:
+            raise pypardiso.pardiso_wrapper.PyPardisoError(err.value)
+        return x
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """``H^{-1} b`` for ``b: (n,)`` or ``(n, k)``."""
+        if self.backend == "pardiso":  # one copy in (Fortran order), one out
+            b = np.asarray(b, dtype=np.float64)
+            x = self._pardiso(33, np.asfortranarray(b.reshape(self.n, -1)))
+            return np.ascontiguousarray(x).reshape(b.shape)
         b = np.array(b, dtype=np.float64, order="C", copy=True)
         if self.backend == "splu":
             return self._solver.solve(b)
-        if self.backend == "pardiso":
-            x = self._pardiso(33, np.asfortranarray(b))
-            return np.ascontiguousarray(x).reshape(b.shape)
         x = np.zeros_like(b)
         self._solver.solve(b, x)
         return x
@@ -296,7 +321,7 @@ class SparseCholesky:
 
 def _host_solve(handle: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The one host callback: solve with the live factor ``handle``."""
-    return _FACTORS[int(handle)].solve(np.asarray(b)).astype(np.float64)
+    return _FACTORS[int(handle)].solve(np.asarray(b, dtype=np.float64))
 
 
 def _apply_factor(handle: jax.Array, b: jax.Array) -> jax.Array:
