@@ -8,7 +8,8 @@ Pipeline: parameterize the scan (as :func:`_smoothed` sees it: spikes removed, a
 umbrella steps, so that scanner spikes do not fold the map) -> a coarse domain on a
 subset of the scan's vertices (:func:`~.domain.coarse_domain`) -> rounds of fit
 (:func:`~.fit.fit_domain`), true deviation and refinement (:mod:`.refine`) until the
-inliers are within the tolerance or the budget is spent -> with a robust loss, the
+inliers are within the tolerance or the budget is spent (without a tolerance: the budget,
+placed in steps where the inliers deviate most) -> with a robust loss, the
 final robust fit by optimistix Gauss--Newton. The rounds fit a robust loss by a plain
 and one reweighted least-squares solve each (weights afresh from the round's own plain
 fit), so the vertex count can change every round without compiling anything; the final
@@ -61,6 +62,13 @@ INITIAL_FRACTION = 0.005
 INITIAL_MIN = 24
 #: Refinement rounds at most.
 MAX_ROUNDS = 12
+#: Without a tolerance (a vertex budget alone) the first coarse domain has this fraction of the budget,
+#: and the rounds spend the rest where the inliers deviate most (a crease, a region the sizing missed) ...
+BUDGET_START = 0.6
+#: ... at most this fraction of the budget a round ...
+BUDGET_STEP = 0.15
+#: ... into faces whose inliers deviate more than this many noise estimates (noise alone places none).
+BUDGET_NOISE_SIGMAS = 4.5
 #: Reweighted least-squares steps after each round's plain fit (a robust loss).
 IRLS_STEPS = 1
 
@@ -208,12 +216,12 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray
         p = parameterize(V, F, method="uv", uv=uv)
         return p.uv, p.faces, p
     X = _smoothed(V, F)
-    try:
-        p = parameterize(X, F, method=param, repair=param != "lscm")
+    try:  # the map unsmoothed: the coarse fit averages its jitter out, and smoothing costs as much as LSCM
+        p = parameterize(X, F, method=param, repair=param != "lscm", smooth=False)
     except MeshError as exc:
         if "folded" not in exc.kinds:
             raise
-        p = parameterize(X, F, method="harmonic")
+        p = parameterize(X, F, method="harmonic", smooth=False)
         p.messages.append(f"the lscm map folded; the harmonic map is used instead ({str(exc).splitlines()[0]})")
     return p.uv, p.faces, p
 
@@ -230,11 +238,14 @@ def _user_net(p, dom: CoarseDomain, space, ctrl: np.ndarray) -> tuple[np.ndarray
     return user_domain(coarse, ctrl, space.tri.uv)
 
 
-def _first_domain(V: np.ndarray, F: np.ndarray, uv: np.ndarray, opt: _Options) -> CoarseDomain:
-    """The starting coarse domain: the budget, or with a tolerance a coarser start (more if the outline needs it)."""
-    if not opt.refine:
-        return coarse_domain(V, F, uv, n_vertices=opt.budget)
-    k = min(opt.budget, max(INITIAL_MIN, int(round(INITIAL_FRACTION * V.shape[0]))))
+def _first_domain(V: np.ndarray, F: np.ndarray, uv: np.ndarray, opt: _Options, max_rounds: int) -> CoarseDomain:
+    """The starting coarse domain, coarser than the budget (more if the outline needs it): with a tolerance
+    :data:`INITIAL_FRACTION` of the scan, without one :data:`BUDGET_START` of the budget (all of it with one round)."""
+    if opt.refine:
+        k = max(INITIAL_MIN, int(round(INITIAL_FRACTION * V.shape[0])))
+    else:
+        k = int(round(BUDGET_START * opt.budget)) if max_rounds > 1 else opt.budget
+    k = min(opt.budget, k)
     while k < opt.budget:
         try:
             return coarse_domain(V, F, uv, n_vertices=k)
@@ -265,7 +276,9 @@ def approximate_surface(
     V : (n, 3) float, F : (m, 3) int
         An open scan (disk, or disk with holes).
     tolerance : largest deviation of an inlier (model units); tolerance_rel : the same as a
-        fraction of the bounding-box diagonal. Without either the fit uses ``n_vertices`` as is.
+        fraction of the bounding-box diagonal. Without either, at most ``n_vertices``: a first domain of
+        :data:`BUDGET_START` of them, the rest inserted where the inliers deviate most (more than
+        :data:`BUDGET_NOISE_SIGMAS` noise estimates; ``max_rounds=1``: one domain of the whole budget)
     n_vertices : vertex budget (default :data:`~.domain.DEFAULT_FRACTION` of the scan without a
         tolerance, :data:`DEFAULT_BUDGET_FRACTION` with one)
     corners : ``"data"`` (each corner point interpolates its scan vertex) or ``"fit"`` (fitted
@@ -300,14 +313,14 @@ def approximate_surface(
 
     uv, faces, parameterization = _domain_uv(V, F, uv, param)
     stage("parameterize")
-    dom = _first_domain(V, faces, uv, opt)
+    dom = _first_domain(V, faces, uv, opt, max_rounds)
     stage("domain")
     if opt.auto:
         opt = dataclasses.replace(opt, weights=_smoothing(dom, V, opt))
         stage("smoothing")
     scale = None if opt.loss == "l2" else loss_scale(dom, opt.loss, diagonal)
     best, history, stop = _refine(V, dom, opt, scale, max_rounds, stage)
-    final, weights = _final(V, best, opt, scale, stage)
+    final, weights = _final(V, best, opt, scale, best.dom is not dom, stage)
     return _result(V, final, opt, weights, scale, history, stop, clock.timings, parameterization)
 
 
@@ -365,20 +378,27 @@ def _insert(dom: CoarseDomain, ids: np.ndarray) -> CoarseDomain:
             return dom
 
 
-def _grow(dom: CoarseDomain, state: Round, opt: _Options) -> CoarseDomain:
-    """``dom`` with the vertices :func:`~.refine.pick_vertices` asks for, within the budget."""
-    ids = pick_vertices(state, opt.tolerance, opt.budget - dom.stats.n_vertices)
+def _grow(dom: CoarseDomain, state: Round, threshold: float, room: int, budget: int) -> CoarseDomain:
+    """``dom`` with the vertices :func:`~.refine.pick_vertices` asks for (faces over ``threshold``, at most
+    ``room``), within the budget."""
+    ids = pick_vertices(state, threshold, room)
     new = _insert(dom, ids) if ids.size else dom
-    while new.stats.n_vertices > opt.budget and ids.size > 1:  # chord splits can add a few
+    while new.stats.n_vertices > budget and ids.size > 1:  # chord splits can add a few
         ids = ids[: ids.size // 2]
         new = _insert(dom, ids)
-    return new if new.stats.n_vertices <= opt.budget else dom
+    return new if new.stats.n_vertices <= budget else dom
 
 
 def _refine(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None, max_rounds: int,
             stage: Callable) -> tuple[Round, list[dict], str]:
-    """The refinement rounds: ``(best round, history, why it stopped)``."""
+    """The refinement rounds: ``(best round, history, why it stopped)``.
+
+    With a tolerance, until it is met or the budget spent; without one, the budget is spent in steps of
+    :data:`BUDGET_STEP` where the inliers deviate more than :data:`BUDGET_NOISE_SIGMAS` noise estimates.
+    """
     best, history, stop = None, [], "rounds"
+    threshold = opt.tolerance if opt.refine else BUDGET_NOISE_SIGMAS * dom.stats.noise
+    step = opt.budget if opt.refine else max(1, int(np.ceil(BUDGET_STEP * opt.budget)))
     for r in range(max_rounds):
         t0 = time.perf_counter()
         fit, located = _round_fit(V, dom, opt, scale)
@@ -389,16 +409,15 @@ def _refine(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None
         stage("deviation", record=record)
         if best is None or state.max_deviation < best.max_deviation:
             best = state
-        if not opt.refine:
-            stop = "no tolerance"
-            break
-        if state.max_deviation <= opt.tolerance:
-            stop = "tolerance met"
+        if state.max_deviation <= threshold:
+            stop = "tolerance met" if opt.refine else "within the noise"
             break
         if dom.stats.n_vertices >= opt.budget:
             stop = "budget"
             break
-        new = _grow(dom, state, opt)
+        if r + 1 == max_rounds:
+            break
+        new = _grow(dom, state, threshold, min(step, opt.budget - dom.stats.n_vertices), opt.budget)
         stage("refine")
         if new.stats.n_vertices == dom.stats.n_vertices:
             stop = "stalled"  # nothing could be inserted (every candidate too close to a vertex, or budget)
@@ -407,14 +426,14 @@ def _refine(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None
     return best, history, stop
 
 
-def _final(V: np.ndarray, best: Round, opt: _Options, scale: np.ndarray | None, stage: Callable
+def _final(V: np.ndarray, best: Round, opt: _Options, scale: np.ndarray | None, refined: bool, stage: Callable
            ) -> tuple[Round, FitWeights]:
     """The final fit on the best round's domain: with a robust loss its minimum by Gauss--Newton; with
-    cross-validated weights and a refinement, the weight chosen again on this domain. With a
+    cross-validated weights and a refined domain, the weight chosen again on it. With a
     tolerance it replaces the best round only if it meets the tolerance too or does not raise the
     maximum deviation. Returns the state kept and its weights."""
     t0 = time.perf_counter()
-    weights = _smoothing(best.dom, V, opt) if (opt.auto and opt.refine) else opt.weights
+    weights = _smoothing(best.dom, V, opt) if (opt.auto and refined) else opt.weights
     if scale is None and weights == opt.weights:
         stage("final")
         return best, opt.weights
