@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.sparse as sp
 
 from trispline.spline.bernstein import basis
 from trispline.spline.checks import as_array, check_ids
@@ -82,9 +83,13 @@ def residual(ctrl: Array, frames: Array, a: dict) -> Array:
 
 
 def add_normal(parts: NormalParts, a: dict) -> None:
-    """Adds ``s^2 b b^T`` and ``s^2 b xyz^T`` of every sample ``b = basis`` to its patch."""
+    """Adds ``s^2 b b^T`` and ``s^2 b xyz^T`` of every sample ``b = basis`` to its patch (each chunk's sums
+    per patch as one sparse patch-by-sample product: ``np.add.at`` over the blocks is ~15x slower)."""
     for lo in range(0, a["face"].size, _CHUNK):
         sl = slice(lo, lo + _CHUNK)
         b = a["basis"][sl] * a["scale"][sl, None]
-        np.add.at(parts.blocks, a["face"][sl], b[:, :, None] * b[:, None, :])
-        np.add.at(parts.patch_rhs, a["face"][sl], b[:, :, None] * (a["scale"][sl, None] * a["target"][sl])[:, None, :])
+        faces, owner = np.unique(a["face"][sl], return_inverse=True)
+        S = sp.csr_array((np.ones(owner.size), (owner, np.arange(owner.size))), shape=(faces.size, owner.size))
+        per_patch = lambda x: (S @ x.reshape(owner.size, -1)).reshape((faces.size,) + x.shape[1:])  # noqa: E731
+        parts.blocks[faces] += per_patch(b[:, :, None] * b[:, None, :])
+        parts.patch_rhs[faces] += per_patch(b[:, :, None] * (a["scale"][sl, None] * a["target"][sl])[:, None, :])
