@@ -11,7 +11,9 @@ Rows (each in its own process, so its peak memory is its own):
 Peer in the same run: ``scipy.interpolate.CloughTocher2DInterpolator`` building its
 interpolant on the same points (a height-field-only cubic, shown for scale); ``x CT`` is
 the row's total over that build time. ``total/factor`` is the row's total (load to save)
-over its factorisation stage; ``peak MB`` the process's peak resident memory.
+over its factorisation stage; ``peak MiB`` the process's peak resident memory; ``CPU s``
+the process's CPU seconds (user + system: what the row costs whatever the machine's load,
+the peer build excluded for the CLI row, included for in-process rows).
 
     python benchmarks/bench_fit_speed.py                         # 10k 50k 100k 200k, CLI 100k
     python benchmarks/bench_fit_speed.py --faces 500000 --cli 0 --no-real
@@ -105,8 +107,9 @@ def fit_row(path: Path) -> dict:
     return row
 
 
-def run_child(cmd: list[str]) -> tuple[float, float, str]:
-    """``(wall seconds, peak RSS in MB, stdout)`` of a child process (reaped with ``wait4``: its own rusage)."""
+def run_child(cmd: list[str]) -> tuple[float, float, float, str]:
+    """``(wall seconds, peak RSS in MiB, CPU seconds, stdout)`` of a child process (reaped with ``wait4``:
+    its own rusage)."""
     t = time.perf_counter()
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     out = proc.stdout.read()
@@ -116,7 +119,7 @@ def run_child(cmd: list[str]) -> tuple[float, float, str]:
     proc.returncode = os.waitstatus_to_exitcode(status)
     if proc.returncode != 0:
         raise RuntimeError(f"{' '.join(map(str, cmd))} failed ({proc.returncode}):\n{err[-2000:]}")
-    return wall, usage.ru_maxrss / 1024, out
+    return wall, usage.ru_maxrss / 1024, usage.ru_utime + usage.ru_stime, out
 
 
 def print_row(label: str, r: dict) -> None:
@@ -124,7 +127,7 @@ def print_row(label: str, r: dict) -> None:
     print(f"{label:<14} {r['faces']:>7} {r.get('free', 0):>8} | "
           + " ".join(f"{r[s]:8.2f}" if s in r else f"{'':>8}" for s in STAGES)
           + f" | {r['total']:8.2f} {ratio:7.2f} {r.get('steps', ''):>3} {r.get('c1', float('nan')):8.1e}"
-          + f" {r['peak']:8.0f} | {r['peer']:7.2f} {r['total'] / r['peer']:7.1f}")
+          + f" {r['peak']:8.0f} {r['cpu']:7.1f} | {r['peer']:7.2f} {r['total'] / r['peer']:7.1f}")
     sys.stdout.flush()
 
 
@@ -139,7 +142,8 @@ def main(argv=None) -> int:
         print(json.dumps(fit_row(Path(a.row))))
         return 0
     hdr = (f"{'mesh':<14} {'faces':>7} {'unknowns':>8} | " + " ".join(f"{s[:8]:>8}" for s in STAGES)
-           + f" | {'total s':>8} {'t/factor':>7} {'GN':>3} {'C1 rel':>8} {'peak MB':>8} | {'CT s':>7} {'x CT':>7}")
+           + f" | {'total s':>8} {'t/factor':>7} {'GN':>3} {'C1 rel':>8} {'peak MiB':>8} {'CPU s':>7}"
+           + f" | {'CT s':>7} {'x CT':>7}")
     print(f"load average at start {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")
     print(hdr)
     print("-" * len(hdr))
@@ -152,9 +156,9 @@ def main(argv=None) -> int:
     if not a.no_real and (DATA / "mountain.obj").exists():
         jobs.append((DATA / "mountain.obj", "mountain.obj"))
     for path, label in jobs:
-        wall, peak, out = run_child([sys.executable, __file__, "--row", str(path)])
+        wall, peak, cpu, out = run_child([sys.executable, __file__, "--row", str(path)])
         r = json.loads(out.strip().splitlines()[-1])
-        r["peak"] = peak
+        r.update(peak=peak, cpu=cpu)
         print_row(label, r)
     if a.cli:
         V, F = make_random_scan(a.cli)
@@ -162,9 +166,9 @@ def main(argv=None) -> int:
         write_obj(path, V, F)
         cmd = [sys.executable, "-m", "trispline.fit", "fit", str(path), "-o", str(tmp / "random.npz"),
                "--param", "uv", "--json", "--quiet"]
-        wall, peak, out = run_child(cmd)
+        wall, peak, cpu, out = run_child(cmd)
         d = json.loads(out)
-        r = dict(faces=int(F.shape[0]), total=wall, peak=peak, peer=clough_tocher_seconds(V),
+        r = dict(faces=int(F.shape[0]), total=wall, peak=peak, cpu=cpu, peer=clough_tocher_seconds(V),
                  steps=d["iterations"], c1=d["c1_residual"], **d["timings"])
         print_row(f"CLI random {a.cli // 1000}k", r)
     print(f"load average at end {os.getloadavg()[0]:.2f}")
