@@ -24,6 +24,7 @@ from .domain import UVTransform, normalise
 from .errors import MeshError
 from .methods import MAPS, raw_map
 from .repair import polygon_area, repair_folds
+from .smooth import smooth_uv
 from .validate import ValidatedMesh, validate_mesh
 
 METHODS = MAPS + ("auto",)
@@ -34,6 +35,10 @@ AUTO_ORDER = ("lscm", "harmonic", "slim")
 #: when none is named: LSCM keeps triangle shapes, which the C1 conditions depend on
 #: (docs/param.md compares the methods on real meshes).
 DEFAULT_METHOD = "lscm"
+#: Whether :func:`parameterize` smooths the map (:func:`~trispline.param.smooth.smooth_uv`) by
+#: default: on the analytic surfaces of ``benchmarks/bench_accuracy3d.py`` it brought the fit's
+#: error to that of the true parameterization (docs/param.md, "Smoothing").
+DEFAULT_SMOOTH = True
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,7 +65,8 @@ class Parameterization:
         ``flipped_before_repair``, ``degenerate_before_repair`` (face counts) and ``score``
         (``angle_max``, see :func:`~trispline.param.distortion.score`); all numbers.
     repaired : str or None
-        ``"tutte"`` or ``"composite_harmonic"`` when the first map folded.
+        ``"tutte"`` or ``"composite_harmonic"`` when the first map folded; ``"harmonic"`` when
+        that repair of a free-boundary map was badly sheared and the harmonic map less so.
     messages : list of str
     report : dict
         Validation counts (see :class:`ValidatedMesh`).
@@ -73,6 +79,9 @@ class Parameterization:
         For ``method="auto"``: which map it chose and why (also in ``messages``); else "".
     candidates : dict
         For ``method="auto"``: the distortion dict of every map it measured.
+    smoothing : dict
+        What :func:`~trispline.param.smooth.smooth_uv` did (``moved_max``, ``reverted``,
+        ``fallback``, ``unfolded``: folds of the raw map it removed); empty when the map was not smoothed (``smooth=False``, ``method="uv"``).
     """
 
     uv: np.ndarray
@@ -88,6 +97,7 @@ class Parameterization:
     source_uv: np.ndarray | None = None
     reason: str = ""
     candidates: dict = field(default_factory=dict)
+    smoothing: dict = field(default_factory=dict)
 
 
 def _height_axes_hint(vm: ValidatedMesh) -> str:
@@ -107,6 +117,7 @@ def parameterize(
     *,
     uv: np.ndarray | None = None,
     repair: bool = True,
+    smooth: bool = DEFAULT_SMOOTH,
 ) -> Parameterization:
     """Map an open genus-0 mesh to a fold-free planar triangulation.
 
@@ -131,6 +142,12 @@ def parameterize(
     repair : bool
         Replace a folded map by a fold-free one (see ``Parameterization.repaired``);
         if False, a folded map raises.
+    smooth : bool
+        Replace each vertex's uv by a local polynomial fit of its neighbours' (as a function of
+        position on the surface; boundary vertices along their loop, corners kept), which removes
+        the discrete map's vertex-to-vertex irregularity (:mod:`trispline.param.smooth`); the
+        result is checked for folds and falls back to the map itself. Not for ``method="uv"``
+        (the given coordinates are kept as they are). Default :data:`DEFAULT_SMOOTH`.
 
     Raises
     ------
@@ -145,11 +162,12 @@ def parameterize(
         raise MeshError(f"uv was given but method is {method!r}; use method='uv'", ["method"])
     vm = validate_mesh(V, F)
     if method == "auto":
-        return _auto(vm, repair)
-    return _single(vm, method, uv, repair)
+        return _auto(vm, repair, smooth)
+    return _single(vm, method, uv, repair, smooth)
 
 
-def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool) -> Parameterization:
+def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
+            smooth: bool = DEFAULT_SMOOTH) -> Parameterization:
     """:func:`parameterize` with one map of :data:`~trispline.param.methods.MAPS`."""
     messages = list(vm.messages)
     raw = raw_map(vm, method, uv)
@@ -162,7 +180,12 @@ def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool)
     if mirrored:
         raw = raw * np.array([-1.0, 1.0])
         messages.append(f"the {method} map came out clockwise; mirrored u")
+    smoothing: dict = {}
+    if smooth and method != "uv":  # first: a smooth map often has none of the raw map's few folds
+        raw, smoothing = _smoothed(vm, raw, method, messages)
     raw, repaired, folds = _unfold(vm, raw, method, uv is None, repair, messages)
+    if smooth and repaired == "harmonic":  # the harmonic map that replaced a bad repair
+        raw, smoothing = _smoothed(vm, raw, "harmonic", messages)
     uvn, centre, scale = normalise(raw)
     _refuse_folds(uvn, vm.F, method, repaired)
     boundary = max(vm.boundary_loops, key=lambda l: abs(polygon_area(uvn[l])))
@@ -173,8 +196,22 @@ def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool)
         uv=uvn, faces=vm.F, method=method, boundary=boundary,
         transform=UVTransform(centre=centre, scale=scale, mirrored=mirrored),
         distortion=dist, repaired=repaired, messages=messages, report=vm.report,
-        warning=warning(dist, sum(folds), method), source_uv=source_uv,
+        warning=warning(dist, sum(folds), method), source_uv=source_uv, smoothing=smoothing,
     )
+
+
+def _smoothed(vm: ValidatedMesh, raw: np.ndarray, method: str, messages: list[str]) -> tuple[np.ndarray, dict]:
+    """:func:`~trispline.param.smooth.smooth_uv` of a raw map (the harmonic map's outline stays on its circle);
+    ``info`` also counts the raw map's folds it removed (``unfolded``)."""
+    keep = vm.boundary_loops[0] if method == "harmonic" else None
+    folds_before = int(np.logical_or(*fold_mask(raw, vm.F)).sum())
+    new, info = smooth_uv(vm.V, vm.F, raw, vm.boundary_loops, keep=keep)
+    info["unfolded"] = folds_before if folds_before and not info["fallback"] else 0
+    if info["unfolded"]:
+        messages.append(f"smoothing the {method} map removed its {folds_before} folded triangles")
+    elif info["fallback"] and not folds_before:
+        messages.append(f"smoothing folded the {method} map; kept it unsmoothed")
+    return new, info
 
 
 def _good(p: Parameterization) -> bool:
@@ -182,7 +219,7 @@ def _good(p: Parameterization) -> bool:
     return _folds(p) == 0 and p.distortion["score"] <= ANGLE_DISTORTION_WARN
 
 
-def _auto(vm: ValidatedMesh, repair: bool) -> Parameterization:
+def _auto(vm: ValidatedMesh, repair: bool, smooth: bool) -> Parameterization:
     """``method="auto"``: LSCM when it is good, else the least distorted map, fold-free first."""
     tried: dict[str, Parameterization] = {}
     failed: dict[str, str] = {}
@@ -190,7 +227,7 @@ def _auto(vm: ValidatedMesh, repair: bool) -> Parameterization:
         if tried.get(AUTO_ORDER[0]) is not None and _good(tried[AUTO_ORDER[0]]):
             break
         try:
-            tried[name] = _single(vm, name, None, repair)
+            tried[name] = _single(vm, name, None, repair, smooth)
         except MeshError as exc:
             failed[name] = str(exc).splitlines()[0]
     if not tried:
@@ -234,8 +271,29 @@ def _unfold(vm: ValidatedMesh, raw: np.ndarray, method: str, no_uv: bool, repair
         raise MeshError(f"the {method} parameterization folds {n_flip + n_deg} triangles: {what}; "
                         f"enable repair or choose another method{hint}", ["folded"])
     raw, repaired = repair_folds(vm, raw, method)
+    raw, repaired = _better_than_repair(vm, raw, repaired, method)
     messages.append(f"the {method} map had {what}; repaired with a {repaired} map{hint}")
     return raw, repaired, (n_flip, n_deg)
+
+
+def _better_than_repair(vm: ValidatedMesh, repaired_uv: np.ndarray, repaired: str,
+                        method: str) -> tuple[np.ndarray, str]:
+    """A repair of a free-boundary map that is itself badly sheared (score above
+    ``ANGLE_DISTORTION_WARN``) gives way to the harmonic map when that is fold-free and less sheared
+    (an Enneper surface's LSCM folded one triangle; its composite-harmonic repair had a triangle
+    sheared 3e8-fold, which the fit could not factor; its harmonic map fits: issue 17)."""
+    if method not in ("lscm", "slim"):
+        return repaired_uv, repaired
+    first = score(summarize(*face_distortion(vm.V, vm.F, repaired_uv)))
+    if first <= ANGLE_DISTORTION_WARN:
+        return repaired_uv, repaired
+    harm = raw_map(vm, "harmonic")
+    if signed_areas(harm, vm.F).sum() < 0:
+        harm = harm * np.array([-1.0, 1.0])
+    if np.isfinite(harm).all() and not np.logical_or(*fold_mask(harm, vm.F)).any():
+        if score(summarize(*face_distortion(vm.V, vm.F, harm))) < first:
+            return harm, "harmonic"
+    return repaired_uv, repaired
 
 
 def _refuse_folds(uvn: np.ndarray, F: np.ndarray, method: str, repaired: str | None) -> None:

@@ -179,10 +179,11 @@ def _boundary(V: np.ndarray, uv: np.ndarray, loop: np.ndarray, degree: int) -> n
 
 
 def smooth_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, loops: list[np.ndarray], *,
-              degree: int = DEGREE, rings: int = RINGS) -> tuple[np.ndarray, dict]:
+              degree: int = DEGREE, rings: int = RINGS, keep: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
     """Smoothed, fold-free copy ``(nv, 2)`` of the map ``uv (nv, 2)`` of the mesh ``V (nv, 3)``, ``F (nf, 3)``.
 
-    ``loops``: the mesh's boundary loops (e.g. :attr:`ValidatedMesh.boundary_loops`). Returns
+    ``loops``: the mesh's boundary loops (e.g. :attr:`ValidatedMesh.boundary_loops`); ``keep``:
+    vertex ids that keep their uv (e.g. the harmonic map's outline, on its circle). Returns
     the map and ``info``: ``moved_max`` (largest move over the vertex's mean edge length in
     uv), ``reverted`` (vertices that kept their uv because of a fold), ``fallback`` (True when
     the unchanged map was returned).
@@ -195,6 +196,8 @@ def smooth_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, loops: list[np.ndarr
         new[sl] = _interior(V, uv, nbr[sl], h[sl], degree)
     for loop in loops:
         new[loop] = _boundary(V, uv, loop, degree)
+    if keep is not None:
+        new[keep] = uv[keep]
     kept = np.zeros(nv, bool)
     for _ in range(REVERT_ROUNDS):
         flipped, degenerate = fold_mask(new, F)

@@ -16,7 +16,9 @@ import numpy as np
 from trispline.spline.index import NCTRL
 from trispline.spline.util.parallel import Workers
 
+from .. import boundary
 from .arrays import Array, array_module
+from .local import blended_targets
 from .quadrature import PAIRS, pair_hessian_rows, pair_moments
 
 if TYPE_CHECKING:
@@ -63,9 +65,11 @@ def thin_plate_gram(bary_grad: np.ndarray, areas: np.ndarray) -> np.ndarray:
 
 
 def setup(ctx: TermContext) -> dict[str, np.ndarray]:
-    """``D (Q, 6, 21)``, ``sqw (Q,)`` (the 10-row quadrature tables) and ``W (n, 6, 3)`` of the patches."""
+    """``D (Q, 6, 21)``, ``sqw (Q,)`` (the 10-row quadrature tables), ``W (n, 6, 3)`` of the patches and
+    ``target``, the nets the thin plate is measured from (:func:`trispline.fit.boundary.bend_reference`)."""
     D, sqw = pair_hessian_rows()
-    return dict(D=D, sqw=sqw, W=bend_weights(ctx.bary_gradients, ctx.areas, ctx.weights.bend))
+    return dict(D=D, sqw=sqw, W=bend_weights(ctx.bary_gradients, ctx.areas, ctx.weights.bend),
+                target=boundary.bend_reference(ctx, blended_targets))
 
 
 def residual(ctrl: Array, frames: Array, a: dict) -> Array:
@@ -76,6 +80,8 @@ def residual(ctrl: Array, frames: Array, a: dict) -> Array:
     (XLA then moves no large intermediate between layouts).
     """
     xp = array_module(ctrl)
+    if "target" in a:  # measured from the reference nets (trispline.fit.boundary)
+        ctrl = ctrl - a["target"]
     n, _, d = ctrl.shape
     D = a["D"] * a["sqw"][:, None, None]
     Q = D.shape[0]
@@ -92,10 +98,13 @@ def add_normal(parts: NormalParts, a: dict) -> None:
 
     In chunks of patches on a thread per core: no temporary of the blocks' full size.
     """
-    W = a["W"]
+    W, T = a["W"], a.get("target", np.zeros(1))
 
     def add(lo: int, hi: int) -> None:
-        parts.blocks[lo:hi] += gram(W[lo:hi])
+        G = gram(W[lo:hi])
+        parts.blocks[lo:hi] += G
+        if T.size > 1:  # measured from the reference nets: G T on the right-hand side
+            parts.patch_rhs[lo:hi] += np.matmul(G, T[lo:hi])
 
     with Workers(W.shape[0], parallel_min=2 * GRAM_CHUNK, serial_blas=True) as work:
         work.map(add, W.shape[0], GRAM_CHUNK)

@@ -76,7 +76,11 @@ def test_weights_change_energies_sensibly(franke_fit):
     # pure thin plate: no target terms, larger tilt deviation
     plain = fit_surface(V, F, uv=p, weights=FitWeights(tilt=0.0, local=0.0))
     assert plain.energies["tilt"] == 0.0 and plain.energies["local"] == 0.0
-    assert plain.energies["bend"] < base.energies["bend"]  # the thin-plate minimiser bends least
+    # the thin-plate minimiser bends least (plain thin plates: the default bend is measured from the local fits)
+    from trispline.fit.energy import thin_plate_gram
+    tp = [float(np.einsum("fic,fij,fjc->", r.ctrl, thin_plate_gram(r.space.tri.bary_gradients, r.space.tri.areas),
+                          r.ctrl)) for r in (plain, base)]
+    assert tp[0] < tp[1]
 
 
 def test_data_term_pulls_surface_to_samples(franke_fit):

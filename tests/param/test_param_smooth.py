@@ -124,3 +124,37 @@ def test_folds_left_after_the_rounds_return_the_map_unchanged(monkeypatch):
     new, info = smooth_uv(V, F, uv, loops)
     assert info["fallback"]
     np.testing.assert_array_equal(new, uv)
+
+
+# ------------------------------------------------------------------------------ in parameterize
+def test_parameterize_smooths_by_default_and_reports_it():
+    V, F = bumpy_disk(800)
+    p = parameterize(V, F)
+    raw = parameterize(V, F, smooth=False)
+    assert set(p.smoothing) == {"moved_max", "reverted", "fallback", "unfolded"} and raw.smoothing == {}
+    assert 0 < p.smoothing["moved_max"] < 0.05 and not p.smoothing["fallback"]
+    assert 0 < np.abs(p.uv - raw.uv).max() < 0.01
+    flipped, degenerate = fold_mask(p.uv, F)
+    assert not (flipped | degenerate).any() and p.warning is None
+
+
+def test_harmonic_outline_stays_on_its_circle_and_given_uv_is_kept():
+    V, F = bumpy_disk(800)
+    p = parameterize(V, F, "harmonic")
+    raw = p.transform.to_raw(p.uv)
+    np.testing.assert_allclose(np.linalg.norm(raw[p.boundary], axis=1), 1.0, atol=1e-12)
+    assert p.smoothing["moved_max"] > 0
+    given = parameterize(V, F, "uv", uv=V[:, :2])
+    np.testing.assert_allclose(given.transform.to_raw(given.uv), V[:, :2], atol=1e-14)
+    assert given.smoothing == {}
+
+
+def test_a_badly_sheared_repair_gives_way_to_the_harmonic_map():
+    """Enneper's LSCM folds one triangle; its composite-harmonic repair shears one 3e8-fold."""
+    from trispline.fit.datasets.analytic import analytic_mesh
+
+    m = analytic_mesh("enneper", 800)
+    p = parameterize(m.V, m.F)
+    assert p.repaired == "harmonic" and p.distortion["flipped_before_repair"] == 1
+    assert p.distortion["score"] < 1.2 and p.smoothing["moved_max"] > 0
+    assert any("repaired with a harmonic map" in msg for msg in p.messages)

@@ -1,0 +1,97 @@
+"""The fit near the outline (issue 17): the thin plate measured against the local fits' shape.
+
+    nets = reference_nets(ctx, blended_targets)   # (n, 21, 3) the local fits' blended nets, once per context
+    T = bend_reference(ctx, blended_targets)      # what the bend term subtracts before its thin plate
+
+(``blended_targets`` is :func:`trispline.fit.energy.local.blended_targets`, passed in by the
+terms so that this module imports none of them.)
+
+Why: the thin-plate energy ``int |F_uu|^2 + 2 |F_uv|^2 + |F_vv|^2`` of a free-boundary
+surface has natural boundary conditions (the second normal derivative and the normal
+flux of the Laplacian vanish at the outline). A curved surface violates them, so the bend
+term pulls the patches along the outline flat: on the analytic surfaces of
+``benchmarks/bench_accuracy3d.py`` the band of faces touching the outline carried 25-100x
+the interior RMS error, in proportion to the bend weight, and exact local targets did not
+help (the bend, not the targets, set the band's error). Lowering the bend in the band only
+moved the error to the next ring (the same conditions hold at the edge of any region the
+bend covers).
+
+The cure keeps the bend as the fairing term but measures it on the surface's deviation
+from the data's local shape: ``int |D^2 (F - T)|^2`` with ``T`` the per-patch blend of
+the three vertices' local fits (the ``local`` term's targets, :func:`reference_nets`).
+A surface that follows its local fits costs nothing, whatever its curvature, so nothing
+pulls at the outline; deviations (wiggles between the data vertices) are still faired.
+With ``local = 0`` (no local targets) the bend is the plain thin plate.
+"""
+from __future__ import annotations
+
+import weakref
+from typing import TYPE_CHECKING, Callable
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from .energy.context import TermContext
+
+__all__ = ["RELATIVE_BEND", "TRUSTED_LOO", "UNTRUSTED_LOO", "bend_reference", "reference_nets", "trust"]
+
+#: Whether the bend term is measured against the local fits' nets (see the module docstring;
+#: measured in docs/fit.md, "The boundary").
+RELATIVE_BEND = True
+
+#: A vertex's local fit is trusted as the bend's reference when its leave-one-out error is at most
+#: this fraction of its mean 3D edge length, not at all from :data:`UNTRUSTED_LOO` on (log-linear
+#: between). Measured medians: clean analytic meshes 2e-5 to 2e-4, the smooth shared meshes
+#: (snail, inspired_mesh) 1e-5 to 2e-5; the noisy generated scan 1.4e-2, halftunnel 1.1e-2.
+TRUSTED_LOO = 1e-3
+UNTRUSTED_LOO = 1e-2
+
+_cache: list = [None, None]  # [weak reference to the context, its nets]: the last context's only
+
+
+def reference_nets(ctx: TermContext, blended_targets: Callable) -> np.ndarray:
+    """``(n, 21, d)`` the local fits' blended nets of the context's patches (the ``local`` term's
+    targets, ``blended_targets`` = :func:`~trispline.fit.energy.local.blended_targets`), computed
+    once per context."""
+    ref = _cache[0]
+    if ref is not None and ref() is ctx:
+        return _cache[1]
+    nets = blended_targets(ctx.uv, ctx.faces, ctx.fit.evaluate, power=ctx.weights.blend_power,
+                           report=ctx.report)
+    _cache[:] = [weakref.ref(ctx, _forget), nets]
+    return nets
+
+
+def _forget(ref: weakref.ref) -> None:
+    """The cached context is gone: drop its nets (unless a later context's replaced them)."""
+    if _cache[0] is ref:
+        _cache[:] = [None, None]
+
+
+def bend_reference(ctx: TermContext, blended_targets: Callable) -> np.ndarray:
+    """What the bend term's thin plate is measured from: :func:`reference_nets` ``(n, 21, d)`` when
+    :data:`RELATIVE_BEND` and the local term has weight and fits (the approximation's context has
+    none: its bend has a reference of its own), else ``(1, 1, 1)`` zeros (the plain thin plate)."""
+    if not (RELATIVE_BEND and ctx.fit is not None and ctx.weights.local > 0 and ctx.weights.bend > 0):
+        return np.zeros((1, 1, 1))
+    beta = trust(ctx)[ctx.faces].min(1)  # (n,) a patch trusts the least trusted of its vertices' fits
+    if not beta.any():
+        return np.zeros((1, 1, 1))
+    return reference_nets(ctx, blended_targets) * beta[:, None, None]
+
+
+def trust(ctx: TermContext) -> np.ndarray:
+    """``(h,)`` in [0, 1]: how far each halo vertex's local fit is the bend's reference, from its
+    leave-one-out error over its mean 3D edge length (:data:`TRUSTED_LOO`, :data:`UNTRUSTED_LOO`).
+
+    Where the data are noisy the local interpolants follow the noise; measured from them the
+    bend would stop fairing it (on the shared scans: more patches of extreme curvature).
+    """
+    F, V = ctx.halo_faces, ctx.V
+    e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    length = np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1)
+    h = np.bincount(e.ravel(), np.repeat(length, 2), minlength=len(V)) / np.maximum(
+        np.bincount(e.ravel(), minlength=len(V)), 1)
+    r = ctx.fit.loo / np.maximum(h, np.finfo(float).tiny)
+    lo, hi = np.log(TRUSTED_LOO), np.log(UNTRUSTED_LOO)
+    return np.clip((hi - np.log(np.maximum(r, np.finfo(float).tiny))) / (hi - lo), 0.0, 1.0)
