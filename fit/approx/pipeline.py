@@ -217,12 +217,12 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray
         p = parameterize(V, F, method="uv", uv=uv)
         return p.uv, p.faces, p
     X = _smoothed(V, F)
-    try:  # the map unsmoothed: the coarse fit averages its jitter out, and smoothing costs as much as LSCM
-        p = parameterize(X, F, method=param, repair=param != "lscm", smooth=False)
+    try:
+        p = parameterize(X, F, method=param, repair=param != "lscm")
     except MeshError as exc:
         if "folded" not in exc.kinds:
             raise
-        p = parameterize(X, F, method="harmonic", smooth=False)
+        p = parameterize(X, F, method="harmonic")
         p.messages.append(f"the lscm map folded; the harmonic map is used instead ({str(exc).splitlines()[0]})")
     return p.uv, p.faces, p
 
