@@ -60,6 +60,16 @@ def face_areas_3d(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
 
 
+def face_aspects(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Aspect ``(nf,)`` of each face in 2D or 3D: its longest edge over its height on that edge
+    (``2 / sqrt(3)`` for an equilateral triangle; inf for a zero-area face)."""
+    V = np.column_stack([V, np.zeros(len(V))]) if V.shape[1] == 2 else V
+    P = V[F]  # (nf, 3, 3)
+    longest = (np.diff(P[:, [0, 1, 2, 0]], axis=1) ** 2).sum(2).max(1)  # squared
+    with np.errstate(divide="ignore"):
+        return longest / (2.0 * face_areas_3d(V, F))
+
+
 def zero_area_faces(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """Mask ``(nf,)`` of faces whose 3D area is below ``MIN_RELATIVE_AREA_3D`` times the mean."""
     area = face_areas_3d(V, F)

@@ -16,6 +16,7 @@ your own below the last one with the same helpers.
 from __future__ import annotations
 
 import io
+import json
 import os
 import re
 import signal
@@ -617,6 +618,13 @@ def test_a_sliver_is_bad_input(tmp_path, capsys):
     trimesh.Trimesh(V, np.array([[0, 1, 2], [0, 3, 1]]), process=False).export(path)
     assert_cli_error(cli(capsys, "fit", path, "-o", tmp_path / "s.npz"), "slivers too thin to fit")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sliver.obj"]
+    r = cli(capsys, "info", path, "--json")  # info says so too
+    assert r.rc == 3 and json.loads(r.out)["fit"]["problems"] == ["slivers"]
+    from trispline.param import face_aspects
+
+    tri = np.array([[0, 0], [1, 0], [0.5, np.sqrt(3) / 2]])
+    np.testing.assert_allclose(face_aspects(tri, np.array([[0, 1, 2]])), [2 / np.sqrt(3)])
+    np.testing.assert_allclose(face_aspects(V, np.array([[0, 1, 2]])), [1e8], rtol=1e-6)
 
 
 def test_demo_with_a_bad_option_leaves_no_folder(tmp_path, capsys):

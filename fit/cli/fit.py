@@ -37,7 +37,7 @@ from . import approximate
 from .common import EXIT_OK, UI, add_common, check_output, distinct, fmt, nonneg_float, positive_int
 
 __all__ = ["WEIGHT_FIELDS", "WEIGHT_HELP", "FIT_STAGES", "EXAMPLE_FACES", "MAX_FIT_RINGS", "MAX_BLEND_POWER",
-           "MAX_DOMAIN_ASPECT",
+           "MAX_DOMAIN_ASPECT", "sliver_message",
            "add_parsers", "cmd_fit", "cmd_demo"]
 
 #: Default faces of the built-in example scan.
@@ -358,19 +358,24 @@ def _parameterize(args: argparse.Namespace, ui: UI, mesh: _Input) -> tuple[Any, 
 
 
 def _refuse_slivers(uv: np.ndarray, faces: np.ndarray) -> None:
-    """UsageError naming the domain triangles whose aspect (longest edge / height) exceeds
-    :data:`MAX_DOMAIN_ASPECT`; ``uv (nv, 2)``, ``faces (nf, 3)``."""
-    from trispline.spline.errors import first_few
-    from trispline.spline.topology import signed_areas
+    """UsageError naming the domain triangles ``faces (nf, 3)`` over ``uv (nv, 2)`` whose aspect
+    (:func:`trispline.param.face_aspects`) exceeds :data:`MAX_DOMAIN_ASPECT`."""
+    message = sliver_message(uv, faces)
+    if message:
+        raise UsageError(message)
 
-    P = uv[faces]  # (nf, 3, 2)
-    longest = (np.diff(P[:, [0, 1, 2, 0]], axis=1) ** 2).sum(2).max(1)  # squared
-    aspect = longest / np.maximum(2.0 * np.abs(signed_areas(uv, faces)), np.finfo(float).tiny)
+
+def sliver_message(points: np.ndarray, faces: np.ndarray) -> str | None:
+    """Why the fit refuses the triangles ``faces (nf, 3)`` over ``points (n, 2 or 3)`` as slivers, or None."""
+    from trispline.param import face_aspects
+    from trispline.spline.errors import first_few
+
+    aspect = face_aspects(points, faces)
     bad = np.flatnonzero(aspect > MAX_DOMAIN_ASPECT)
-    if bad.size:
-        raise UsageError(f"{bad.size} triangles are slivers too thin to fit (longest edge / height up to "
-                         f"{aspect.max():.3g}, at most {MAX_DOMAIN_ASPECT:g}): faces {first_few(bad)}; "
-                         "collapse or remove them")
+    if not bad.size:
+        return None
+    return (f"{bad.size} triangles are slivers too thin to fit (longest edge / height up to {aspect.max():.3g}, "
+            f"at most {MAX_DOMAIN_ASPECT:g}): faces {first_few(bad)}; collapse or remove them")
 
 
 def _warn_far_from_origin(ui: UI, V: np.ndarray) -> None:

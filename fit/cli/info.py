@@ -15,6 +15,7 @@ from typing import Any
 from trispline.param import DEFAULT_METHOD, METHODS, inspect_mesh
 
 from .common import EXIT_CHECK, EXIT_OK, UI, add_common, fmt, one_line
+from .fit import sliver_message
 
 __all__ = ["add_parser", "cmd_info"]
 
@@ -90,6 +91,10 @@ def cmd_info(args: argparse.Namespace, ui: UI) -> int:
     report = inspect_mesh(md.V, md.F, keep_largest=args.keep_largest, repair=args.repair, param=args.param,
                           uv=md.uv)
     report["fit"] = _fit_verdict(report.pop("validation"))
+    if report["fit"]["accepted"] and not args.repair and not args.keep_largest:  # fit measures it in the domain
+        sliver = sliver_message(md.V, md.F)
+        if sliver:
+            report["fit"] = dict(accepted=False, problems=["slivers"], message=sliver)
     if report.get("distortion", {}).get("warning"):
         ui.warn(report["distortion"]["warning"])
     data = dict(command="info", file=args.mesh, format=Path(args.mesh).suffix.lower()[1:],

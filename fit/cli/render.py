@@ -20,7 +20,7 @@ from typing import Any, Callable, Sequence
 
 from ..errors import RenderError
 from .common import (
-    EXIT_OK, PROG, UI, Parser, add_common, check_output, finite_float, load_surface, positive_float,
+    EXIT_OK, PROG, UI, Parser, add_common, check_output, finite_float, leave, load_surface, positive_float,
     positive_int, run_cli,
 )
 
@@ -154,7 +154,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         add_parser(sub)
         return parser
 
-    return run_cli(make_parser, argv)
+    code = run_cli(make_parser, argv)
+    return leave(code) if argv is None else code
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -488,7 +488,7 @@ def test_docs_cli_md_is_the_generated_reference():
     from trispline.fit.cli.reference import cli_reference
 
     page = Path(__file__).resolve().parents[2] / "docs" / "cli.md"
-    assert page.read_text() == cli_reference()
+    assert page.read_text() == cli_reference(), "regenerate: python -m trispline.fit.cli.reference > docs/cli.md"
     assert "## `trispline render`" in page.read_text() and "--blend-power" in page.read_text()
 
 
