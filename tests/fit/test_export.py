@@ -342,3 +342,19 @@ def test_face_scan_is_irregular_noisy_and_faces_its_own_way():
         face_scan(100)
     with pytest.raises(ValueError, match="noise"):
         face_scan(1000, noise=-1)
+
+
+def test_large_export_warning_lives_in_fit_errors():
+    """One class, defined in fit.errors (every exception and warning type of the fit layer), re-exported by io.export."""
+    from trispline.fit import errors
+    from trispline.fit.io import export
+
+    assert export.LargeExportWarning is errors.LargeExportWarning
+    assert errors.LargeExportWarning.__module__ == "trispline.fit.errors"
+
+
+def test_cli_version_is_the_captions():
+    from trispline.fit.cli.common import version
+    from trispline.fit.render.caption import package_version
+
+    assert version() == package_version()
