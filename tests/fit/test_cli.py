@@ -617,3 +617,23 @@ def test_fit_json_sizes_energies_and_picture(tmp_path, capsys, monkeypatch):
     assert res[1000.0]["energies"]["bend"] > 1e5 * d["energies"]["bend"]
     assert len(drawn) == 2 and drawn[0]["resolution"] is None and drawn[0]["caption"].endswith(
         f"m1.obj, trispline {cli.common.version()}")
+
+
+@pytest.mark.parametrize("mirror", [False, True])
+def test_fit_param_uv_keeps_the_files_texture_coordinates(tmp_path, capsys, mirror):
+    """--param uv with OBJ vt (a clockwise one too): the file's uv is the vt exactly, and the surface at
+    a vertex's vt is that vertex."""
+    from trispline.param.testing import bumpy_disk
+
+    V, F = bumpy_disk(80)
+    vt = V[:, :2] * np.array([2.0, -3.0 if mirror else 3.0]) + np.array([5.0, 0.25])
+    lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in V.tolist()] + [f"vt {u!r} {v!r}" for u, v in vt.tolist()]
+    lines += [f"f {a + 1}/{a + 1} {b + 1}/{b + 1} {c + 1}/{c + 1}" for a, b, c in F.tolist()]
+    mesh = tmp_path / "t.obj"
+    mesh.write_text("\n".join(lines) + "\n")
+    main_json(capsys, "fit", mesh, "-o", tmp_path / "s.npz", "--param", "uv")
+    s = SplineSurface.load(tmp_path / "s.npz")
+    md = read_mesh(mesh)
+    np.testing.assert_array_equal(s.uv, md.uv)
+    assert bool(s.extras["uv_mirrored"]) is mirror
+    np.testing.assert_allclose(s.evaluate(*s.locate(md.uv)), md.V, rtol=0, atol=1e-9)
