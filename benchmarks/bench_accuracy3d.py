@@ -208,8 +208,9 @@ def main(argv: list[str] | None = None) -> int:
                 met[k] = met.get(k, 0) + bool(ok)
             cases += 1
             sys.stdout.flush()
-    print("RMS over trispline's, geometric mean: " + ", ".join(
-        f"{m} {np.exp(np.mean(np.log(v))):.3g}" for m, v in ratios.items()))
+    finite = {m: np.array(v)[np.isfinite(v) & (np.array(v) > 0)] for m, v in ratios.items()}
+    print("RMS over trispline's, geometric mean (cases where both fits ran): " + ", ".join(
+        f"{m} {np.exp(np.mean(np.log(v))):.3g}" for m, v in finite.items()))
     print("summary: " + "; ".join(f"{k}: {v}/{cases}" for k, v in met.items()))
     return 0
 

@@ -158,3 +158,4 @@ def test_a_badly_sheared_repair_gives_way_to_the_harmonic_map():
     assert p.repaired == "harmonic" and p.distortion["flipped_before_repair"] == 1
     assert p.distortion["score"] < 1.2 and p.smoothing["moved_max"] > 0
     assert any("repaired with a harmonic map" in msg for msg in p.messages)
+
