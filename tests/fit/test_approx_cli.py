@@ -81,7 +81,7 @@ def test_vertices_alone_fits_at_most_that_many(scan, tmp_path, capsys):
     assert rc == 0, err
     d = json.loads(stdout)
     assert d["vertices"] <= 50 and d["tolerance"] is None and not d["met"]
-    assert len(d["rounds"]) == 1 and d["stop"] in ("budget", "within the noise")  # BUDGET_START = 1: one domain
+    assert len(d["rounds"]) == 1 and d["stop"] == "no tolerance"
     assert "uses only the bend and data weights; ignored: tilt" in err
 
 
