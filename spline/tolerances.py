@@ -84,6 +84,22 @@ CAD_TOLERANCE = 1e-7
 #: Zebra pictures: normals with |N . W| below this (almost parallel to the light panel) stay grey.
 ZEBRA_MIN_COS = 1e-3
 
+#: A domain triangle more elongated than this (longest edge over its height) is refused before
+#: the fit: at 1e7 the fit's normal matrix is no longer positive definite in float64 (measured:
+#: a sliver of height 1e-6 on a unit base fits with C1 residual 1e-16, one of 1e-7 fails).
+MAX_DOMAIN_ASPECT = 1e6
+#: Data whose float64 coordinates keep less than this fraction of their extent (``eps * max|V| /
+#: extent``: 5e-11 for a 20 m tile at UTM's 5e6 m) get a warning: the stored net's continuity is
+#: only known to about 100 times that (the check's precision floor).
+FAR_PRECISION = 1e-11
+#: A residual passes when within the tolerance plus this many times the residual that the
+#: rounding of the stored coordinates alone makes (``precision_floor``: one random draw of
+#: half-ulp errors, of which the fit's own rounding is one more draw).
+PRECISION_MARGIN = 8.0
+#: Below this relative precision of the coordinates (``eps * max|ctrl| / extent``) the floor is not
+#: measured: it is far below any tolerance worth asking.
+FLOOR_NEGLIGIBLE = 1e-14
+
 # ---------------------------------------------------------------------- approximation
 #: Gauss--Newton tolerances of a robust approximation (data normalised to unit size): a
 #: step below 1e-8 of the size moves the surface far less than any scan's noise, and the

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from trispline.spline.tolerances import CHECK_TOLERANCE
+from trispline.spline.tolerances import CHECK_TOLERANCE, FLOOR_NEGLIGIBLE, PRECISION_MARGIN
 
 from .common import (
     EXIT_CHECK, EXIT_OK, PROG, UI, add_common, fmt, load_surface, nonneg_float, positive_int,
@@ -18,13 +18,6 @@ from .common import (
 
 __all__ = ["add_parser", "cmd_check", "surface_report", "PRECISION_MARGIN"]
 
-#: A residual passes when within the tolerance plus this many times the residual that the
-#: rounding of the stored coordinates alone makes (``precision_floor``: one random draw of
-#: half-ulp errors, of which the fit's own rounding is one more draw).
-PRECISION_MARGIN = 8.0
-#: Below this relative precision of the coordinates (``eps * max|ctrl| / extent``) the floor is not
-#: measured: it is far below any tolerance worth asking.
-FLOOR_NEGLIGIBLE = 1e-14
 
 
 def add_parser(sub: Any) -> None:

@@ -29,6 +29,7 @@ from typing import Any, Callable
 import numpy as np
 
 from trispline.param import DEFAULT_METHOD, METHODS
+from trispline.spline.tolerances import FAR_PRECISION, MAX_DOMAIN_ASPECT
 
 from ..errors import CommandFailed, FitError, UsageError
 from ..stages import FIT_STAGES
@@ -52,14 +53,6 @@ MAX_FIT_RINGS = 6
 #: ``--blend-power`` above this is refused: the blend's weights ``5^p`` overflow near p = 441,
 #: and far below that the blend is already a step at every corner.
 MAX_BLEND_POWER = 16.0
-#: A domain triangle more elongated than this (longest edge over its height) is refused before
-#: the fit: at 1e7 the fit's normal matrix is no longer positive definite in float64 (measured:
-#: a sliver of height 1e-6 on a unit base fits with C1 residual 1e-16, one of 1e-7 fails).
-MAX_DOMAIN_ASPECT = 1e6
-#: Data whose float64 coordinates keep less than this fraction of their extent (``eps * max|V| /
-#: extent``: 5e-11 for a 20 m tile at UTM's 5e6 m) get a warning: the stored net's continuity is
-#: only known to about 100 times that (the check's precision floor).
-FAR_PRECISION = 1e-11
 #: The meaning of each weight flag, as ``--help`` says it (docs/fit.md has the details).
 WEIGHT_HELP = {
     "bend": "thin-plate bending over the domain: smooths the surface between the vertices",
