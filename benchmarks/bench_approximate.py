@@ -4,6 +4,7 @@
     python benchmarks/bench_approximate.py --denoise [--surfaces bumps,cap] [--data-weights 100,300]
     python benchmarks/bench_approximate.py --compactness [--no-interpolation]
     python benchmarks/bench_approximate.py --speed [--no-million]
+    python benchmarks/bench_approximate.py --zebra OUT.png [--only MESH]
 
 **Equal size** (the default table). Rows: every mesh in ``../shared/data`` that trispline
 accepts (2% of its vertices when it has at least 20k faces, else 5%), and generated scans
@@ -460,6 +461,28 @@ def speed(no_million: bool) -> None:
           "targets (issue 15): 100k faces <= 15 s, 1M <= 90 s and <= 10 GB")
 
 
+# ---------------------------------------------------------------------------------------------- zebra
+def zebra(name: str, out: str) -> None:
+    """Zebra stripes of a shared real scan: the interpolating fit beside the approximation at
+    :data:`TOLERANCE_REL` (the issue's README picture); patches and the reached deviation in the titles."""
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    from trispline.fit import fit_surface
+    from trispline.fit import render as rd
+    from trispline.fit.approx import approximate_surface
+
+    V, F, _ = load(name)
+    interp = fit_surface(V, F).surface
+    res = approximate_surface(V, F, tolerance_rel=TOLERANCE_REL)
+    diag = float(np.linalg.norm(V.max(0) - V.min(0)))
+    dev = res.stats["deviation"]["max"] / diag
+    panels = [rd.Panel(interp, "zebra", title=f"interpolated: {F.shape[0]:,} patches"),
+              rd.Panel(res.surface, "zebra", title=f"approximated: {res.stats['patches']:,} (max {dev:.1e} diag)")]
+    rd.write_png(rd.draw_panels(panels, size=(1600, 650)).image, out)
+    print(f"wrote {out}")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--only", nargs="*", help="row names (mesh files or generated-100k / generated-1M)")
@@ -473,13 +496,17 @@ def main(argv=None) -> int:
     ap.add_argument("--compactness", action="store_true", help="the real scans at a tolerance of 1e-3")
     ap.add_argument("--no-interpolation", action="store_true", help="--compactness without the interpolating fit")
     ap.add_argument("--speed", action="store_true", help="trispline fit --tolerance-rel 1e-3 end to end")
+    ap.add_argument("--zebra", metavar="PNG", help="zebra picture of --only's first mesh (default beetle.off): "
+                                                  "interpolated beside approximated at 1e-3")
     ap.add_argument("--child", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
         task, *params = json.loads(args.child)
         print(json.dumps(globals()[task](*params)))
         return 0
-    if args.denoise:
+    if args.zebra:
+        zebra((args.only or ["beetle.off"])[0], args.zebra)
+    elif args.denoise:
         denoise(args.surfaces.split(","), args.data_weights)
     elif args.compactness:
         compactness(args.only, not args.no_interpolation)
