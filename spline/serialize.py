@@ -164,7 +164,7 @@ def write_surface(
         bad = sorted(k for k, v in arrays.items() if v.dtype == object)
         if bad:
             raise SurfaceFileError(f"extras {bad} are not numeric or string arrays; NPZ cannot store them")
-        _write_atomically(path, lambda fh: np.savez_compressed(fh, **arrays))
+        _write_atomically(path, lambda fh: np.savez(fh, **arrays))  # stored: see docs/surface.md
     else:
         try:
             text = json.dumps(_jsonable({**data, **extras}), allow_nan=False)

@@ -364,7 +364,7 @@ def test_existing_output_untouched_on_failure(tmp_path, capsys, surface, monkeyp
     def fail(*args, **kwargs):
         raise OSError("disk full")
 
-    monkeypatch.setattr(np, "savez_compressed", fail)
+    monkeypatch.setattr(np, "savez", fail)
     with pytest.raises(OSError, match="disk full"):
         surface.save(out)
     before.assert_unchanged()
