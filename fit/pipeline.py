@@ -103,6 +103,16 @@ def _domain(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray, n
     return p.uv, p.faces, p
 
 
+def _refuse_slivers(uv: np.ndarray, faces: np.ndarray) -> None:
+    """:class:`InputError` for domain triangles too thin to fit (their normal matrix is not
+    positive definite in float64; :func:`trispline.param.sliver_message`)."""
+    from trispline.param import sliver_message
+
+    message = sliver_message(uv, faces)
+    if message:
+        raise InputError(message)
+
+
 def fit_surface(
     V: np.ndarray,
     F: np.ndarray,
@@ -152,6 +162,7 @@ def fit_surface(
     clock = StageTimer(progress)
     V, F = _check_mesh(V, F)
     uv, faces, parameterization = _domain(V, F, uv, param)
+    _refuse_slivers(uv, faces)
     clock(PARAMETERIZE)
     tri = Triangulation(uv, faces)
     space = build_space(tri)
@@ -186,6 +197,19 @@ def fit_surface(
     return FitResult(**result, timings=clock.timings)
 
 
+def _control_points(space: SplineSpace, free: np.ndarray, V: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """The net ``(F, 21, 3)`` of ``free``; for data far from the origin (UTM tiles, offsets of 1e6
+    and more: the centre further off than the data's extent) computed about ``centre`` and moved
+    back, with the corner points exactly the data vertices. The C1 conditions are affine, but
+    evaluated on coordinates of 1e6 they lose the digits of a 10 m tile; about the centre the net
+    is C1 up to the rounding of its stored coordinates (``trispline check``'s precision floor)."""
+    if not np.abs(centre).max() > np.ptp(V, axis=0).max():
+        return space.control_points(free)
+    ctrl = space.control_points(free - centre) + centre
+    ctrl[np.arange(space.tri.n_faces)[:, None], CORNER[None, :]] = V[space.tri.faces]
+    return ctrl
+
+
 def _finish(V: np.ndarray, space: SplineSpace, prob: en.Problem, x: np.ndarray, energies: dict[str, float],
             centre: np.ndarray, size: float, steps: int, ok: bool, weights: FitWeights, parameterization) -> dict:
     """The result's fields (all but the timings): control points, energies in data units, checks."""
@@ -193,7 +217,7 @@ def _finish(V: np.ndarray, space: SplineSpace, prob: en.Problem, x: np.ndarray, 
     free = np.zeros((space.n_free, 3))
     free[space.corner_free] = V
     free[prob.free_r] = x * size + centre
-    ctrl = space.control_points(free)
+    ctrl = _control_points(space, free, V, centre)
     # the residuals are linear in the data's scale, except the angle term's
     units = en.energy_units(size)
     energies = {k: v * units[k] for k, v in energies.items()}

@@ -15,7 +15,7 @@ import numpy as np
 
 from trispline.spline.checks import as_array
 from trispline.spline.errors import InputError, first_few
-from trispline.spline.tolerances import MIN_RELATIVE_AREA_3D
+from trispline.spline.tolerances import MAX_DOMAIN_ASPECT, MIN_RELATIVE_AREA_3D
 
 from .errors import MeshError
 from .tables import boundary_loops, fan_counts, orientation_classes, undirected_edges, vertex_components
@@ -68,6 +68,17 @@ def face_aspects(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     longest = (np.diff(P[:, [0, 1, 2, 0]], axis=1) ** 2).sum(2).max(1)  # squared
     with np.errstate(divide="ignore"):
         return longest / (2.0 * face_areas_3d(V, F))
+
+
+def sliver_message(points: np.ndarray, faces: np.ndarray) -> str | None:
+    """Why a fit refuses the triangles ``faces (nf, 3)`` over ``points (n, 2 or 3)`` as slivers
+    (aspect above :data:`~trispline.spline.tolerances.MAX_DOMAIN_ASPECT`), or None."""
+    aspect = face_aspects(points, faces)
+    bad = np.flatnonzero(aspect > MAX_DOMAIN_ASPECT)
+    if not bad.size:
+        return None
+    return (f"{bad.size} triangles are slivers too thin to fit (longest edge / height up to {aspect.max():.3g}, "
+            f"at most {MAX_DOMAIN_ASPECT:g}): faces {first_few(bad)}; collapse or remove them")
 
 
 def zero_area_faces(V: np.ndarray, F: np.ndarray) -> np.ndarray:

@@ -620,6 +620,10 @@ def test_a_sliver_is_bad_input(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sliver.obj"]
     r = cli(capsys, "info", path, "--json")  # info says so too
     assert r.rc == 3 and json.loads(r.out)["fit"]["problems"] == ["slivers"]
+    from trispline.fit import fit_surface
+
+    with pytest.raises(InputError, match="slivers too thin to fit"):  # and the Python API
+        fit_surface(V, np.array([[0, 1, 2], [0, 3, 1]]), uv=V[:, :2])
     from trispline.param import face_aspects
 
     tri = np.array([[0, 0], [1, 0], [0.5, np.sqrt(3) / 2]])

@@ -9,12 +9,11 @@ Every option is checked before any work (absurd sizes are refused with the memor
 need), and the mesh is validated and parameterized before JAX starts, so an unusable mesh
 fails in a fraction of a second; JAX is imported (and switched to float64) only here.
 
-Two things happen here rather than in :func:`~trispline.fit.pipeline.fit_surface`: the
+One thing happens here rather than in :func:`~trispline.fit.pipeline.fit_surface`: the
 parameterization (to report its choice, distortion and warnings, and to put the domain back
-into the user's coordinates with :func:`trispline.param.user_domain` for ``--param uv``), and
-the control points of data far from the origin (UTM tiles, offsets of 1e6 and more) are
-computed relative to the data's centre (:func:`_centred_ctrl`), so the stored net is C1 up to
-the rounding of its coordinates. Energies are reported in data units and normalised
+into the user's coordinates with :func:`trispline.param.user_domain` for ``--param uv``).
+Data far from the origin get their net computed about the data's centre by the pipeline
+itself. Energies are reported in data units and normalised
 (:func:`trispline.fit.energy.normalised_energies`: the data scaled to a unit bounding-box
 diagonal, per unit area of the domain), which compare across meshes.
 """
@@ -38,7 +37,7 @@ from . import approximate
 from .common import EXIT_OK, UI, add_common, check_output, distinct, fmt, nonneg_float, positive_int
 
 __all__ = ["WEIGHT_FIELDS", "WEIGHT_HELP", "FIT_STAGES", "EXAMPLE_FACES", "MAX_FIT_RINGS", "MAX_BLEND_POWER",
-           "MAX_DOMAIN_ASPECT", "sliver_message",
+           "MAX_DOMAIN_ASPECT",
            "add_parsers", "cmd_fit", "cmd_demo"]
 
 #: Default faces of the built-in example scan.
@@ -353,22 +352,11 @@ def _parameterize(args: argparse.Namespace, ui: UI, mesh: _Input) -> tuple[Any, 
 def _refuse_slivers(uv: np.ndarray, faces: np.ndarray) -> None:
     """UsageError naming the domain triangles ``faces (nf, 3)`` over ``uv (nv, 2)`` whose aspect
     (:func:`trispline.param.face_aspects`) exceeds :data:`MAX_DOMAIN_ASPECT`."""
+    from trispline.param import sliver_message
+
     message = sliver_message(uv, faces)
     if message:
         raise UsageError(message)
-
-
-def sliver_message(points: np.ndarray, faces: np.ndarray) -> str | None:
-    """Why the fit refuses the triangles ``faces (nf, 3)`` over ``points (n, 2 or 3)`` as slivers, or None."""
-    from trispline.param import face_aspects
-    from trispline.spline.errors import first_few
-
-    aspect = face_aspects(points, faces)
-    bad = np.flatnonzero(aspect > MAX_DOMAIN_ASPECT)
-    if not bad.size:
-        return None
-    return (f"{bad.size} triangles are slivers too thin to fit (longest edge / height up to {aspect.max():.3g}, "
-            f"at most {MAX_DOMAIN_ASPECT:g}): faces {first_few(bad)}; collapse or remove them")
 
 
 def _warn_far_from_origin(ui: UI, V: np.ndarray) -> None:
@@ -465,26 +453,11 @@ def _write(args: argparse.Namespace, ui: UI, surface: Any, outputs: dict[str, Pa
         return out.targets
 
 
-def _centred_ctrl(result: Any, data: np.ndarray) -> np.ndarray:
-    """The control points ``(nf, 21, 3)`` computed relative to the data's centre and moved back:
-    for data far from the origin the net is then C1 up to the rounding of its stored
-    coordinates (the C1 conditions are affine, but evaluating them on coordinates of 1e6 loses
-    the digits of a 10 m tile); ``result.ctrl`` itself when the data are near the origin."""
-    centre = 0.5 * (data.min(0) + data.max(0))
-    if not np.abs(centre).max() > np.ptp(data, axis=0).max():
-        return np.asarray(result.ctrl)
-    from trispline.spline.index import CORNER
-
-    ctrl = result.space.control_points(result.free - centre) + centre
-    ctrl[:, CORNER] = np.asarray(result.ctrl)[:, CORNER]  # the data vertices themselves, not re-rounded
-    return ctrl
-
-
 def _with_fit_extras(result: Any, weights: Any, param: str, source: str, kept: np.ndarray | None, *,
                      parameterization: Any = None, data: np.ndarray | None = None) -> Any:
     """The fitted surface with the fit's settings and energies as optional file keys; with the
     ``parameterization`` the fit used, on the user's domain (:func:`trispline.param.user_domain`)
-    with its normalisation stored, and with the ``data`` vertices, its net centred (:func:`_centred_ctrl`)."""
+    with its normalisation stored, and with the ``data`` vertices, its normalised energies."""
     from trispline.spline.surface import SplineSurface
 
     extras = dict(result.surface.extras) if result.surface is not None else {}
@@ -505,7 +478,6 @@ def _with_fit_extras(result: Any, weights: Any, param: str, source: str, kept: n
     if data is not None:
         from ..energy import normalised_energies
 
-        ctrl = _centred_ctrl(result, data)
         extras["fit_energies_normalised"] = np.array(list(normalised_energies(result.energies, data, uv, faces)
                                                           .values()))
     if parameterization is not None:

@@ -15,7 +15,6 @@ from typing import Any
 from trispline.param import DEFAULT_METHOD, METHODS, inspect_mesh
 
 from .common import EXIT_CHECK, EXIT_OK, UI, add_common, fmt, one_line
-from .fit import sliver_message
 
 __all__ = ["add_parser", "cmd_info"]
 
@@ -92,6 +91,8 @@ def cmd_info(args: argparse.Namespace, ui: UI) -> int:
                           uv=md.uv)
     report["fit"] = _fit_verdict(report.pop("validation"))
     if report["fit"]["accepted"] and not args.repair and not args.keep_largest:  # fit measures it in the domain
+        from trispline.param import sliver_message
+
         sliver = sliver_message(md.V, md.F)
         if sliver:
             report["fit"] = dict(accepted=False, problems=["slivers"], message=sliver)
