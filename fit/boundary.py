@@ -1,10 +1,9 @@
 """The fit near the outline (issue 17): the thin plate measured against the local fits' shape.
 
-    nets = reference_nets(ctx, blended_targets)   # (n, 21, 3) the local fits' blended nets, once per context
-    T = bend_reference(ctx, blended_targets)      # what the bend term subtracts before its thin plate
+    T = bend_reference(ctx, blended_targets)   # (n, 21, 3): what the bend subtracts before its thin plate
 
 (``blended_targets`` is :func:`trispline.fit.energy.local.blended_targets`, passed in by the
-terms so that this module imports none of them.)
+bend term so that this module imports no term.)
 
 Why: the thin-plate energy ``int |F_uu|^2 + 2 |F_uv|^2 + |F_vv|^2`` of a free-boundary
 surface has natural boundary conditions (the second normal derivative and the normal
@@ -17,15 +16,17 @@ moved the error to the next ring (the same conditions hold at the edge of any re
 bend covers).
 
 The cure keeps the bend as the fairing term but measures it on the surface's deviation
-from the data's local shape: ``int |D^2 (F - T)|^2`` with ``T`` the per-patch blend of
-the three vertices' local fits (the ``local`` term's targets, :func:`reference_nets`).
-A surface that follows its local fits costs nothing, whatever its curvature, so nothing
-pulls at the outline; deviations (wiggles between the data vertices) are still faired.
-With ``local = 0`` (no local targets) the bend is the plain thin plate.
+from the data's local shape: ``int |D^2 (F - beta T)|^2``, ``T`` per patch the mean of the
+quintic nets of its three vertices' local fits (equal weights: the ``local`` term's
+corner blend, whose weights vary over the patch, adds second derivatives of its own where
+the fits disagree; as the reference it raised the snail's curvature p99.9 1.9 -> 11), and
+``beta`` the patch's :func:`trust` in those fits. A surface that follows trusted local fits
+costs no bending, whatever its curvature, so nothing pulls at the outline; deviations
+(wiggles between the data vertices) are still faired. With ``local = 0`` (no local targets)
+the bend is the plain thin plate.
 """
 from __future__ import annotations
 
-import weakref
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
@@ -33,10 +34,10 @@ import numpy as np
 if TYPE_CHECKING:
     from .energy.context import TermContext
 
-__all__ = ["RELATIVE_BEND", "TRUSTED_LOO", "UNTRUSTED_LOO", "bend_reference", "reference_nets", "trust"]
+__all__ = ["RELATIVE_BEND", "TRUSTED_LOO", "UNTRUSTED_LOO", "bend_reference", "trust"]
 
-#: Whether the bend term is measured against the local fits' nets (see the module docstring;
-#: measured in docs/fit.md, "The boundary").
+#: Whether the bend term is measured from the local fits (see the module docstring; measured in
+#: docs/fit.md, "The boundary").
 RELATIVE_BEND = True
 
 #: A vertex's local fit is trusted as the bend's reference when its leave-one-out error is at most
@@ -46,38 +47,18 @@ RELATIVE_BEND = True
 TRUSTED_LOO = 1e-3
 UNTRUSTED_LOO = 1e-2
 
-_cache: list = [None, None]  # [weak reference to the context, its nets]: the last context's only
-
-
-def reference_nets(ctx: TermContext, blended_targets: Callable) -> np.ndarray:
-    """``(n, 21, d)`` the local fits' blended nets of the context's patches (the ``local`` term's
-    targets, ``blended_targets`` = :func:`~trispline.fit.energy.local.blended_targets`), computed
-    once per context."""
-    ref = _cache[0]
-    if ref is not None and ref() is ctx:
-        return _cache[1]
-    nets = blended_targets(ctx.uv, ctx.faces, ctx.fit.evaluate, power=ctx.weights.blend_power,
-                           report=ctx.report)
-    _cache[:] = [weakref.ref(ctx, _forget), nets]
-    return nets
-
-
-def _forget(ref: weakref.ref) -> None:
-    """The cached context is gone: drop its nets (unless a later context's replaced them)."""
-    if _cache[0] is ref:
-        _cache[:] = [None, None]
-
 
 def bend_reference(ctx: TermContext, blended_targets: Callable) -> np.ndarray:
-    """What the bend term's thin plate is measured from: :func:`reference_nets` ``(n, 21, d)`` when
+    """What the bend term's thin plate is measured from: ``(n, 21, d)`` per patch ``beta`` times the
+    mean net of its three vertices' local fits (``blended_targets`` with blend power 0), when
     :data:`RELATIVE_BEND` and the local term has weight and fits (the approximation's context has
-    none: its bend has a reference of its own), else ``(1, 1, 1)`` zeros (the plain thin plate)."""
+    none: its bend has a reference of its own); else ``(1, 1, 1)`` zeros (the plain thin plate)."""
     if not (RELATIVE_BEND and ctx.fit is not None and ctx.weights.local > 0 and ctx.weights.bend > 0):
         return np.zeros((1, 1, 1))
     beta = trust(ctx)[ctx.faces].min(1)  # (n,) a patch trusts the least trusted of its vertices' fits
     if not beta.any():
         return np.zeros((1, 1, 1))
-    return reference_nets(ctx, blended_targets) * beta[:, None, None]
+    return blended_targets(ctx.uv, ctx.faces, ctx.fit.evaluate, power=0.0) * beta[:, None, None]
 
 
 def trust(ctx: TermContext) -> np.ndarray:

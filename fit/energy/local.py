@@ -16,7 +16,6 @@ import numpy as np
 from trispline.spline.bernstein import basis
 from trispline.spline.index import CORNER, DEGREE, EXPONENTS, NCTRL, STAR
 
-from ..boundary import reference_nets
 from ..progress import Report, span
 from .arrays import Array
 
@@ -66,7 +65,7 @@ def setup(ctx: TermContext) -> dict[str, np.ndarray]:
     n = ctx.faces.shape[0]
     if w.local <= 0:
         return dict(index=np.zeros(0, np.int64), target=np.zeros((0, 3)), scale=np.zeros(0))
-    target = reference_nets(ctx, blended_targets)  # shared with the bend term's reference
+    target = blended_targets(ctx.uv, ctx.faces, ctx.fit.evaluate, power=w.blend_power, report=ctx.report)
     face, slot = np.nonzero(np.broadcast_to(MASK, (n, NCTRL)))
     return dict(index=face * NCTRL + slot, target=target[face, slot], scale=np.sqrt(w.local / ctx.areas[face]))
 

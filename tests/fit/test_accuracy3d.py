@@ -107,7 +107,7 @@ def test_bend_measured_from_the_local_fits_frees_the_band(bench, monkeypatch):
     assert rel.c1_residual < 1e-12 and rel.max_interpolation_error == 0.0
 
 
-def test_reference_nets_are_the_local_targets_once_trusted_by_leave_one_out_and_none_without_local_weight():
+def test_bend_reference_is_the_mean_of_the_trusted_local_fits_and_none_without_local_weight():
     from trispline.fit import FitWeights, boundary
     from trispline.fit.energy import blended_targets, term_context
     from trispline.spline.propagation import build_space
@@ -115,17 +115,21 @@ def test_reference_nets_are_the_local_targets_once_trusted_by_leave_one_out_and_
     mesh = analytic_mesh("wavy", 200)
     space = build_space(Triangulation(mesh.params, mesh.F))
     ctx = term_context(space, mesh.V, FitWeights())
-    nets = boundary.reference_nets(ctx, blended_targets)
-    assert boundary.reference_nets(ctx, blended_targets) is nets
     trust = boundary.trust(ctx)
     assert np.median(trust) == 1.0 and trust.min() > 0.05  # clean smooth data (some outline fits less trusted)
     beta = trust[ctx.faces].min(1)
-    np.testing.assert_array_equal(boundary.bend_reference(ctx, blended_targets), nets * beta[:, None, None])
+    b0 = np.array([0.6, 0.2, 0.2])  # a domain point of the quintic net (3, 1, 1) / 5: interpolated exactly
+    at = np.einsum("k,fkc->fc", b0, ctx.uv[ctx.faces])[:, None, :]
+    vals = [ctx.fit.evaluate(ctx.faces[:, k], at) for k in range(3)]
+    ref = boundary.bend_reference(ctx, blended_targets)
+    np.testing.assert_allclose(ref, blended_targets(ctx.uv, ctx.faces, ctx.fit.evaluate, power=0.0)
+                               * beta[:, None, None], rtol=0, atol=0)
+    # equal weights: at a domain point the net's value is the mean of the three fits there
+    from trispline.spline.bernstein import basis
+    value = np.einsum("i,fid->fd", basis(b0[None])[0], ref / np.where(beta > 0, beta, 1.0)[:, None, None])
+    np.testing.assert_allclose(value[beta > 0], np.mean(vals, 0)[:, 0][beta > 0], atol=1e-12)
     noisy = mesh.V + np.random.default_rng(0).normal(scale=0.02 * mesh.spacing, size=mesh.V.shape)
     loud = term_context(space, noisy, FitWeights())
     assert np.median(boundary.trust(loud)) == 0.0  # noise of 2% of an edge: the fits follow it
-    assert np.abs(boundary.bend_reference(loud, blended_targets)).max() < np.abs(
-        boundary.reference_nets(loud, blended_targets)).max()
-    np.testing.assert_array_equal(nets, blended_targets(ctx.uv, ctx.faces, ctx.fit.evaluate, power=2.0))
     plain = term_context(space, mesh.V, FitWeights(local=0.0))
     np.testing.assert_array_equal(boundary.bend_reference(plain, blended_targets), np.zeros((1, 1, 1)))
