@@ -141,7 +141,8 @@ def _interior(V: np.ndarray, uv: np.ndarray, nbr: np.ndarray, h: np.ndarray, deg
         nbr, X, r2 = (np.take_along_axis(a, keep if a.ndim == 2 else keep[..., None], 1) for a in (nbr, X, r2))
     w = np.exp(-r2 / (WIDTH * WIDTH))
     Y = X - np.matmul(w[:, None, :], X) / w.sum(1)[:, None, None]
-    _, axes = np.linalg.eigh(np.matmul((Y * w[..., None]).transpose(0, 2, 1), Y))  # ascending: the last two span the plane
+    # eigenvectors ascending: the last two span the neighbourhood's principal plane
+    _, axes = np.linalg.eigh(np.matmul((Y * w[..., None]).transpose(0, 2, 1), Y))
     x = np.matmul(X, axes[:, :, [2, 1]]) / h[:, None, None]
     s = fit_weights(x, w, degree)
     return np.matmul(s[:, None, :], gather.rows(uv, np.maximum(nbr, 0)))[:, 0]

@@ -239,7 +239,8 @@ def _refine_once(V: np.ndarray, carry: np.ndarray, lat: np.ndarray, R: int, sche
 
 
 def subdivide(V: np.ndarray, F: np.ndarray, levels: int, scheme: str, carry: np.ndarray) -> Refined:
-    """``levels`` steps of ``scheme`` (:data:`SCHEMES`) on the mesh ``V (nv, 3)``, ``F (nf, 3)``; see the module docstring."""
+    """``levels`` steps of ``scheme`` (:data:`SCHEMES`) on the mesh ``V (nv, 3)``, ``F (nf, 3)``;
+    see the module docstring."""
     if scheme not in SCHEMES:
         raise ValueError(f"unknown scheme {scheme!r}; choose one of {', '.join(SCHEMES)}")
     lat, R = np.asarray(F, np.int64), 1

@@ -170,7 +170,8 @@ def _wavy(s: np.ndarray, t: np.ndarray, a: float = 0.12, w: float = 4.0, k: floa
 
 
 def _enneper(s: np.ndarray, t: np.ndarray, c: float = 0.5) -> PatchDerivatives:
-    """Enneper's minimal surface ``c (u - u^3/3 + u v^2, v - v^3/3 + v u^2, u^2 - v^2)`` (no self-contact for ``|(u, v)| < sqrt 3``)."""
+    """Enneper's minimal surface ``c (u - u^3/3 + u v^2, v - v^3/3 + v u^2, u^2 - v^2)``
+    (no self-contact for ``|(u, v)| < sqrt 3``)."""
     u, v = s, t
     z = np.zeros_like(s)
     col = lambda x, y, w: c * np.column_stack([x, y, w])  # noqa: E731
