@@ -445,12 +445,16 @@ def test_signal_during_a_write_leaves_nothing(tmp_path, sig, code):
 def test_signal_during_a_fit_leaves_nothing(tmp_path, sig):
     """Mid-fit: SIGTERM ends it, SIGINT exits 130 with one line; a complete output or none, never a
     temporary (the signal may land in the write, whose renames run with signals held back)."""
-    with subprocess.Popen([PY, "-m", "trispline.fit", "fit", "--example", "-o", str(tmp_path / "s.npz"),
-                           "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as p:
-        time.sleep(2.5)
+    # signalled once the progress bar shows (so inside the command, whatever the machine's
+    # speed: a fixed sleep landed in the imports under load, or after the end on a fast machine)
+    with subprocess.Popen([PY, "-m", "trispline.fit", "fit", "--example", "--example-faces", "20000", "-o",
+                           str(tmp_path / "s.npz")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as p:
+        first = p.stderr.read(1)
         p.send_signal(sig)
         out, err = p.communicate(timeout=60)
+        err = first + err
     if sig == signal.SIGINT:
+        err = err.rstrip().rsplit("\r", 1)[-1].split("\n")[-1]  # the last line, after the bar
         assert p.returncode == 130 and err.strip() == "trispline: interrupted" and out == ""
     else:
         assert p.returncode in (-signal.SIGTERM, 128 + signal.SIGTERM) and "Traceback" not in err
