@@ -33,7 +33,6 @@ from trispline.spline.errors import InputError
 from trispline.spline.index import CORNER
 from trispline.spline.surface import SplineSurface
 from trispline.spline.tolerances import MIN_RELATIVE_AREA_3D
-from trispline.spline.topology import signed_areas
 from trispline.spline.util.timer import StageTimer
 
 from ..energy.robust import LOSSES, TUNING, inlier_weight
