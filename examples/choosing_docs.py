@@ -49,39 +49,34 @@ def max_curvature(surface) -> float:
     return float(np.abs(sample_surface(surface, 8, curvature=True).mean_curvature).max())
 
 
+def side_by_side(titled: dict, mode: str, path: Path) -> None:
+    """Draw ``{title: surface}`` side by side in ``mode`` into ``path``; print the titles."""
+    for title in titled:
+        print(title)
+    rd.write_png(rd.draw_panels([rd.Panel(s, mode, title=t) for t, s in titled.items()], size=SIZE).image, path)
+
+
 def param_picture(out: Path) -> None:
     truth = truth_scan("bumps", 3000, sigma=0.0)
-    panels = []
-    for method in ("lscm", "harmonic"):
-        s = fit_surface(truth.V, truth.F, param=method).surface
-        title = f"{method}: max curvature {max_curvature(s):.2g}, error {rms_to_truth(truth, s):.1e}"
-        print(title)
-        panels.append(rd.Panel(s, "curvature", title=title))
-    rd.write_png(rd.draw_panels(panels, size=SIZE).image, out / "param_choice.png")
+    fits = {m: fit_surface(truth.V, truth.F, param=m).surface for m in ("lscm", "harmonic")}
+    side_by_side({f"{m}: max curvature {max_curvature(s):.2g}, error {rms_to_truth(truth, s):.1e}": s
+                  for m, s in fits.items()}, "curvature", out / "param_choice.png")
 
 
 def weights_picture(out: Path) -> None:
     truth = truth_scan("bumps", 150, sigma=0.0)
-    panels = []
-    for name, weights in (("bend only", FitWeights(tilt=0.0, local=0.0)),
-                          ("default weights", FitWeights())):
-        s = fit_surface(truth.V, truth.F, weights=weights).surface
-        title = f"{name}: error {rms_to_truth(truth, s):.1e}"
-        print(title)
-        panels.append(rd.Panel(s, "zebra", title=title))
-    rd.write_png(rd.draw_panels(panels, size=SIZE).image, out / "weights_choice.png")
+    weights = {"bend only": FitWeights(tilt=0.0, local=0.0), "default weights": FitWeights()}
+    fits = {n: fit_surface(truth.V, truth.F, weights=w).surface for n, w in weights.items()}
+    side_by_side({f"{n}: error {rms_to_truth(truth, s):.1e}": s for n, s in fits.items()}, "zebra",
+                 out / "weights_choice.png")
 
 
 def approx_picture(out: Path) -> None:
     V, F = synthetic_scan(4000, seed=0)
     fits = {"interpolated": fit_surface(V, F).surface,
             "approximated": approximate_surface(V, F, tolerance_rel=1e-2).surface}
-    panels = []
-    for name, s in fits.items():
-        title = f"{name}: {s.faces.shape[0]} patches, max curvature {max_curvature(s):.2g}"
-        print(title)
-        panels.append(rd.Panel(s, "curvature", title=title))
-    rd.write_png(rd.draw_panels(panels, size=SIZE).image, out / "approx_choice.png")
+    side_by_side({f"{n}: {s.faces.shape[0]} patches, max curvature {max_curvature(s):.2g}": s
+                  for n, s in fits.items()}, "curvature", out / "approx_choice.png")
 
 
 if __name__ == "__main__":
