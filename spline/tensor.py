@@ -62,6 +62,8 @@ EDGE_POINTS = 2 * DEGREE - 1
 FACE_POINTS = 61
 #: Faces per range of the threaded transposes and id tables (keeps a range's rows in cache).
 FACE_CHUNK = 1 << 13
+#: Smallest range of faces a thread takes (below, thread hand-offs cost more than they save).
+FACE_CHUNK_MIN = 1 << 10
 _CORNER_INDEX = np.array([index_of(*(DEGREE * np.eye(3, dtype=np.int64)[k])) for k in range(3)])
 _SIXTHS = 6  # quad corners have barycentric coordinates in {0, 1/3, 1/2, 1}: integers times 1/6
 
@@ -266,9 +268,10 @@ def tensor_net(uv: np.ndarray, faces: np.ndarray, ctrl: np.ndarray, *,
 
     # BLAS on one thread per call, threads or not: each product is one range's (measured 3x
     # faster inline at 10k faces on a busy 2-core machine than letting BLAS spawn threads)
-    with _parallel.single_threaded_blas(), _parallel.Workers(nf, parallel_min=2 * FACE_CHUNK) as work:
-        pending = work.start(edges_range, ne, FACE_CHUNK)
-        work.map(faces_range, nf, FACE_CHUNK)
+    chunk = min(FACE_CHUNK, max(FACE_CHUNK_MIN, -(-nf // 4)))  # several ranges a thread from 2 chunks up
+    with _parallel.single_threaded_blas(), _parallel.Workers(nf, parallel_min=2 * FACE_CHUNK_MIN) as work:
+        pending = work.start(edges_range, ne, chunk)
+        work.map(faces_range, nf, chunk)
         for task in pending:
             task.result()
     vc = tri.vertex_corner  # corner 3 f + k: the control point f(v_k^5) of face f

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import sys
 import threading
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, Callable, Iterator
@@ -95,7 +96,20 @@ class Workers:
 
 
 _blas_lock = threading.Lock()
-_blas_state: dict = {"limiter": None, "users": 0}
+_blas_state: dict = {"limiter": None, "users": 0, "controller": None, "modules": -1}
+
+
+def _blas_controller():
+    """A threadpoolctl controller that knows every BLAS loaded so far. Building one reads
+    ``/proc/self/maps`` (1-5 ms with VTK and Open CASCADE loaded: more than a 1k-patch CAD
+    conversion), so it is rebuilt only when modules were imported since (native libraries
+    such as MKL through pypardiso arrive with an import); called under ``_blas_lock``."""
+    from threadpoolctl import ThreadpoolController
+
+    if _blas_state["controller"] is None or _blas_state["modules"] != len(sys.modules):
+        _blas_state["controller"] = ThreadpoolController()
+        _blas_state["modules"] = len(sys.modules)
+    return _blas_state["controller"]
 
 
 @contextlib.contextmanager
@@ -108,15 +122,13 @@ def single_threaded_blas() -> Iterator[None]:
     the original thread count.
     """
     try:
-        from threadpoolctl import ThreadpoolController
+        import threadpoolctl  # noqa: F401
     except ImportError:  # pragma: no cover - threadpoolctl is a dependency
         yield
         return
     with _blas_lock:
         if _blas_state["users"] == 0:
-            # a fresh controller (~1 ms) sees every BLAS loaded so far: one cached from an
-            # earlier call would miss libraries loaded since (MKL through pypardiso, say)
-            _blas_state["limiter"] = ThreadpoolController().limit(limits=1, user_api="blas")
+            _blas_state["limiter"] = _blas_controller().limit(limits=1, user_api="blas")
         _blas_state["users"] += 1
     try:
         yield
