@@ -101,6 +101,9 @@ PRECISION_MARGIN = 8.0
 FLOOR_NEGLIGIBLE = 1e-14
 
 # ---------------------------------------------------------------------- approximation
+#: A tolerance below this many noise standard deviations (the scan analysis' estimate) can only
+#: be met by following the noise: the approximation warns.
+NOISE_SIGMAS = 4.5
 #: Gauss--Newton tolerances of a robust approximation (data normalised to unit size): a
 #: step below 1e-8 of the size moves the surface far less than any scan's noise, and the
 #: gradient then passes the fit's CONVERGED_GRAD_RTOL test (at 1e-7 it did not, with moving corners).

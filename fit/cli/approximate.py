@@ -19,13 +19,13 @@ import sys
 import time
 from typing import Any, Callable
 
+from trispline.spline.tolerances import NOISE_SIGMAS
+
 from ..errors import UsageError
 from .common import EXIT_CHECK, EXIT_OK, PROG, UI, fmt, positive_float, positive_int
 
 __all__ = ["add_options", "requested", "run", "NOISE_SIGMAS"]
 
-#: A tolerance below this many noise standard deviations can only be met by following the noise.
-NOISE_SIGMAS = 4.5
 #: The options that only make sense with an approximation.
 _MODE_OPTIONS = ("corners", "loss", "strict")
 #: FitWeights fields the approximation uses.
@@ -37,9 +37,10 @@ def add_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("approximation (a coarse spline within a tolerance instead of interpolation; "
                              "docs/approximate.md)")
     g.add_argument("--tolerance", type=positive_float, metavar="T",
-                   help="largest deviation of a scan vertex from the surface, in model units")
+                   help="largest deviation of a scan vertex from the surface, in model units "
+                        "(default none: interpolate every vertex)")
     g.add_argument("--tolerance-rel", type=positive_float, metavar="R",
-                   help="the same as a fraction of the bounding-box diagonal (e.g. 1e-3)")
+                   help="the same as a fraction of the bounding-box diagonal, e.g. 1e-3 (default none)")
     g.add_argument("--vertices", type=positive_int, metavar="N",
                    help="vertex budget (default 10%% of the scan with a tolerance; alone: fit with at most N vertices)")
     g.add_argument("--corners", choices=("data", "fit"), default=None,

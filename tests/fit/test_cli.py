@@ -461,7 +461,7 @@ def main_json(capsys, *args) -> dict:
 
 def test_help_says_every_default(capsys):
     """Every option that takes a value says its default (or that it is required) in --help;
-    every weight flag its FitWeights default and a meaning (approximation options: their own module)."""
+    every weight flag its FitWeights default and a meaning."""
     import argparse
 
     from trispline.fit.cli.reference import _subparsers
@@ -469,8 +469,6 @@ def test_help_says_every_default(capsys):
 
     for name, parser in _subparsers(cli.build_parser()).items():
         for group in parser._action_groups:
-            if group.title.startswith("approximation"):
-                continue
             for a in group._group_actions:
                 if not a.option_strings or a.nargs == 0 or isinstance(a, argparse._HelpAction):
                     continue
