@@ -20,7 +20,7 @@ from typing import Any, Callable
 import numpy as np
 import optimistix as optx
 
-from trispline.param import DEFAULT_METHOD
+from trispline.param import DEFAULT_METHOD, refuse_slivers
 from trispline.spline.checks import as_array
 from trispline.spline.continuity import continuity_report
 from trispline.spline.errors import InputError
@@ -103,16 +103,6 @@ def _domain(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray, n
     return p.uv, p.faces, p
 
 
-def _refuse_slivers(uv: np.ndarray, faces: np.ndarray) -> None:
-    """:class:`InputError` for domain triangles too thin to fit (their normal matrix is not
-    positive definite in float64; :func:`trispline.param.sliver_message`)."""
-    from trispline.param import sliver_message
-
-    message = sliver_message(uv, faces)
-    if message:
-        raise InputError(message)
-
-
 def fit_surface(
     V: np.ndarray,
     F: np.ndarray,
@@ -162,7 +152,7 @@ def fit_surface(
     clock = StageTimer(progress)
     V, F = _check_mesh(V, F)
     uv, faces, parameterization = _domain(V, F, uv, param)
-    _refuse_slivers(uv, faces)
+    refuse_slivers(uv, faces)  # thin triangles make the normal matrix indefinite
     clock(PARAMETERIZE)
     tri = Triangulation(uv, faces)
     space = build_space(tri)

@@ -24,11 +24,11 @@ from .methods import harmonic_uv, slim_uv
 from .parameterize import DEFAULT_METHOD, METHODS, Parameterization, parameterize
 from .repair import fill_holes, repair_folds, tutte
 from .repair_mesh import RepairedMesh, repair_mesh
-from .validate import ValidatedMesh, face_areas_3d, face_aspects, sliver_message, validate_mesh
+from .validate import ValidatedMesh, face_areas_3d, face_aspects, refuse_slivers, sliver_message, validate_mesh
 
 __all__ = [
     "MeshError", "MeshWarning", "UnreferencedVerticesWarning",
-    "ValidatedMesh", "face_areas_3d", "face_aspects", "sliver_message", "validate_mesh", "inspect_mesh", "RepairedMesh", "repair_mesh",
+    "ValidatedMesh", "face_areas_3d", "face_aspects", "refuse_slivers", "sliver_message", "validate_mesh", "inspect_mesh", "RepairedMesh", "repair_mesh",
     "DEFAULT_METHOD", "METHODS", "Parameterization", "UVTransform", "parameterize", "harmonic_uv", "slim_uv",
     "user_domain", "reverse_faces", "fill_holes", "fold_mask", "normalise", "repair_folds", "tutte",
     "distortion_report", "face_distortion", "face_jacobians", "summarize", "closest_points",

@@ -81,6 +81,14 @@ def sliver_message(points: np.ndarray, faces: np.ndarray) -> str | None:
             f"at most {MAX_DOMAIN_ASPECT:g}): faces {first_few(bad)}; collapse or remove them")
 
 
+def refuse_slivers(points: np.ndarray, faces: np.ndarray) -> None:
+    """:class:`MeshError` (kind ``"slivers"``) when :func:`sliver_message` finds triangles too thin
+    to fit (their normal matrix is not positive definite in float64)."""
+    message = sliver_message(points, faces)
+    if message:
+        raise MeshError(message, ["slivers"])
+
+
 def zero_area_faces(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """Mask ``(nf,)`` of faces whose 3D area is below ``MIN_RELATIVE_AREA_3D`` times the mean."""
     area = face_areas_3d(V, F)

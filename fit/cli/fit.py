@@ -27,8 +27,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from trispline.param import DEFAULT_METHOD, METHODS
-from trispline.spline.tolerances import FAR_PRECISION, MAX_DOMAIN_ASPECT
+from trispline.param import DEFAULT_METHOD, METHODS, refuse_slivers
+from trispline.spline.tolerances import FAR_PRECISION
 
 from ..errors import CommandFailed, FitError, UsageError
 from ..stages import FIT_STAGES
@@ -37,7 +37,6 @@ from . import approximate
 from .common import EXIT_OK, UI, add_common, check_output, distinct, fmt, nonneg_float, positive_int
 
 __all__ = ["WEIGHT_FIELDS", "WEIGHT_HELP", "FIT_STAGES", "EXAMPLE_FACES", "MAX_FIT_RINGS", "MAX_BLEND_POWER",
-           "MAX_DOMAIN_ASPECT",
            "add_parsers", "cmd_fit", "cmd_demo"]
 
 #: Default faces of the built-in example scan.
@@ -338,25 +337,15 @@ def _announce(ui: UI, p: Any) -> None:
 def _parameterize(args: argparse.Namespace, ui: UI, mesh: _Input) -> tuple[Any, float]:
     """``(Parameterization, seconds)``: the one of ``--param uv`` made when loading, else ``--param``'s map."""
     if mesh.parameterization is not None:
-        _refuse_slivers(mesh.parameterization.uv, mesh.parameterization.faces)
+        refuse_slivers(mesh.parameterization.uv, mesh.parameterization.faces)
         return mesh.parameterization, 0.0
     from trispline.param import parameterize
 
     t0 = time.perf_counter()
     p = parameterize(mesh.V, mesh.F, method=args.param)
     _announce(ui, p)
-    _refuse_slivers(p.uv, p.faces)
+    refuse_slivers(p.uv, p.faces)
     return p, time.perf_counter() - t0
-
-
-def _refuse_slivers(uv: np.ndarray, faces: np.ndarray) -> None:
-    """UsageError naming the domain triangles ``faces (nf, 3)`` over ``uv (nv, 2)`` whose aspect
-    (:func:`trispline.param.face_aspects`) exceeds :data:`MAX_DOMAIN_ASPECT`."""
-    from trispline.param import sliver_message
-
-    message = sliver_message(uv, faces)
-    if message:
-        raise UsageError(message)
 
 
 def _warn_far_from_origin(ui: UI, V: np.ndarray) -> None:
