@@ -358,7 +358,7 @@ TOLERANCE_REL = 1e-3
 
 
 def _file_kb(surface) -> float:
-    """Size of the surface file (NPZ, compressed) in kB."""
+    """Size of the surface file (NPZ, as `SplineSurface.save` writes it) in kB."""
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:
