@@ -424,6 +424,14 @@ with AtomicOutputs() as out:
 """
 
 
+def _default_signals() -> None:
+    """A child's SIGINT as at a terminal: a runner that starts the suite in the background (a
+    non-interactive shell's ``cmd &``) passes SIGINT on ignored, and Python then never raises
+    KeyboardInterrupt — right for a background job, but not the case these tests are about."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 @pytest.mark.parametrize("sig, code", [
     (signal.SIGTERM, 128 + signal.SIGTERM),  # atomic's handler: Terminated, a SystemExit(143)
     (signal.SIGINT, -signal.SIGINT),  # KeyboardInterrupt; Python then dies by the signal itself
@@ -432,7 +440,7 @@ def test_signal_during_a_write_leaves_nothing(tmp_path, sig, code):
     target = tmp_path / "out.npz"
     target.write_bytes(b"old")
     with subprocess.Popen([PY, "-c", _WRITER, str(target)], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                          text=True) as p:
+                          text=True, preexec_fn=_default_signals) as p:
         assert p.stdout.readline().strip() == "ready"
         assert any(".tmp" in q.name for q in tmp_path.iterdir())
         p.send_signal(sig)
@@ -448,7 +456,8 @@ def test_signal_during_a_fit_leaves_nothing(tmp_path, sig):
     # signalled once the progress bar shows (so inside the command, whatever the machine's
     # speed: a fixed sleep landed in the imports under load, or after the end on a fast machine)
     with subprocess.Popen([PY, "-m", "trispline.fit", "fit", "--example", "--example-faces", "20000", "-o",
-                           str(tmp_path / "s.npz")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as p:
+                           str(tmp_path / "s.npz")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                          preexec_fn=_default_signals) as p:
         first = p.stderr.read(1)
         p.send_signal(sig)
         out, err = p.communicate(timeout=60)
