@@ -13,7 +13,7 @@ from .edit import EditResult, SplineEditor
 from .errors import InputError, OutsideDomainError, SurfaceFileError, TriangulationError
 from .locate import Locator
 from .polynomial import polynomial_control_net
-from .propagation import SplineSpace, build_space
+from .propagation import SplineSpace, build_space, working_origin
 from .serialize import read_surface, write_surface
 from .surface import SplineSurface
 from .tessellate import Tessellation, tessellate
@@ -22,6 +22,6 @@ from .topology import Triangulation
 __all__ = [
     "SplineSurface", "SplineSpace", "build_space", "Triangulation", "SplineEditor", "EditResult",
     "tessellate", "Tessellation", "Locator", "continuity_report", "read_surface", "write_surface",
-    "polynomial_control_net",
+    "polynomial_control_net", "working_origin",
     "InputError", "TriangulationError", "OutsideDomainError", "SurfaceFileError",
 ]

@@ -29,9 +29,9 @@ Every surface ``M @ free`` is exactly C1.
 """
 from .build import build_space
 from .diamonds import diamond_coefficients
-from .space import KIND_CORNER, KIND_FLIP, KIND_FRAME, KIND_INNER, KIND_MID, KIND_NAMES, SplineSpace
+from .space import KIND_CORNER, KIND_FLIP, KIND_FRAME, KIND_INNER, KIND_MID, KIND_NAMES, SplineSpace, working_origin
 
 __all__ = [
     "KIND_CORNER", "KIND_FLIP", "KIND_FRAME", "KIND_INNER", "KIND_MID", "KIND_NAMES",
-    "SplineSpace", "build_space", "diamond_coefficients",
+    "SplineSpace", "build_space", "diamond_coefficients", "working_origin",
 ]

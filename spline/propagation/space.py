@@ -7,7 +7,7 @@ from functools import partial
 import numpy as np
 import scipy.sparse as sp
 
-from ..index import FLIP, INNER, NCTRL
+from ..index import CORNER, FLIP, INNER, NCTRL
 from ..net import NetLayout
 from ..topology import Triangulation
 from ..util import gather as _gather, parallel as _parallel, sparse as _sparse
@@ -18,6 +18,15 @@ KIND_NAMES = ("corner", "frame", "inner", "mid", "flip")
 
 #: Faces per range of the threaded gathers in ``SplineSpace.patch_points`` / ``control_points``.
 PATCH_CHUNK = 1 << 14
+
+
+def working_origin(points: np.ndarray) -> np.ndarray | None:
+    """The centre ``(d,)`` of the bounding box of ``points: (n, d)`` when it lies further from the
+    origin than the box is wide (a UTM tile, a scan offset by 1e6), else ``None``: the ``about``
+    of ``SplineSpace.control_points`` for nets fitted to such data."""
+    lo, hi = points.min(0), points.max(0)
+    centre = 0.5 * (lo + hi)
+    return centre if np.abs(centre).max() > (hi - lo).max() else None
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,8 +99,14 @@ class SplineSpace:
         """All control points ``(n_points, d)`` from ``free: (n_free, d)``."""
         return _sparse.matmul(self.M, _rows_of(free, self.n_free, "free", np.float64))
 
-    def control_points(self, free: np.ndarray) -> np.ndarray:
+    def control_points(self, free: np.ndarray, about: np.ndarray | None = None) -> np.ndarray:
         """Per-patch control points ``(F, 21, d)`` from ``free: (n_free, d)``.
+
+        ``about: (d,)``: compute the net of ``free - about`` and move it back, the corner points
+        set to their free values exactly. ``M``'s rows are affine, so this is the same net, but
+        for data far from the origin (UTM tiles, offsets of 1e6: see ``working_origin``) the C1
+        combinations of large coordinates lose the digits of a small tile; about its centre the
+        net is C1 up to the rounding of its stored coordinates.
 
         Equal to ``patch_points(points(free))``, without the whole net in between: the
         shared points (corners, stars, middle points: ``inner0`` rows) are computed
@@ -100,6 +115,10 @@ class SplineSpace:
         keeps 156 MB).
         """
         free = _rows_of(free, self.n_free, "free", np.float64)
+        if about is not None:
+            ctrl = self.control_points(free - about) + about
+            ctrl[:, CORNER] = free[self.corner_free[self.tri.faces]]
+            return ctrl
         if free.ndim != 2 or not _sparse.kernel_ok(self.M, free):
             return self.patch_points(self.points(free))
         nf, d = self.point_index.shape[0], free.shape[1]
