@@ -24,13 +24,6 @@ def harmonic(V: np.ndarray, F: np.ndarray, b: np.ndarray, bc: np.ndarray) -> np.
     )
 
 
-def lscm(V: np.ndarray, F: np.ndarray, b: np.ndarray, bc: np.ndarray) -> np.ndarray:
-    """Least-squares conformal map ``(nv, 2)`` with vertices ``b`` pinned at ``bc``."""
-    uv, _ = igl.lscm(np.ascontiguousarray(V, dtype=np.float64), np.ascontiguousarray(F, dtype=np.int64),
-                     np.ascontiguousarray(b, dtype=np.int64), np.ascontiguousarray(bc, dtype=np.float64))
-    return np.asarray(uv)
-
-
 def composite_harmonic(UV0: np.ndarray, F: np.ndarray, b: np.ndarray, bc: np.ndarray) -> np.ndarray:
     """``igl.bijective_composite_harmonic_mapping`` from a fold-free planar ``UV0 (nv, 2)``."""
     return np.asarray(

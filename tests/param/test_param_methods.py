@@ -3,12 +3,14 @@ from __future__ import annotations
 
 import importlib
 
+import igl
 import numpy as np
 import pytest
 
 from trispline.param import (
     UVTransform, distortion_report, parameterize, reverse_faces, slim_uv, user_domain, validate_mesh,
 )
+from trispline.param.methods import cotangent_laplacian, far_apart, lscm_uv, raw_map
 from trispline.param.testing import bumpy_disk, lift, nearly_closed
 from trispline.spline.errors import InputError
 from trispline.spline.surface import SplineSurface
@@ -20,6 +22,45 @@ from test_param_data import data_mesh, needs_data
 
 #: The module (the package's ``parameterize`` attribute is the function of that name).
 parameterize_module = importlib.import_module("trispline.param.parameterize")
+
+
+# ------------------------------------------------------------------------------ lscm
+def _pins(vm):
+    i, j = far_apart(vm.V, vm.boundary_loops[0])
+    return np.array([i, j]), np.array([[0.0, 0.0], [float(np.linalg.norm(vm.V[i] - vm.V[j])), 0.0]])
+
+
+@pytest.mark.parametrize("backend", ["cholespy", "pardiso"])
+@pytest.mark.parametrize("mesh", ["disk", "holes", "nearly_closed"])
+def test_lscm_is_libigls_map(mesh, backend):
+    if backend == "pardiso":
+        pytest.importorskip("pypardiso")
+    V, F = {"disk": lambda: bumpy_disk(600), "holes": lambda: lift(*random_delaunay(400, holes=3, seed=2)),
+            "nearly_closed": lambda: nearly_closed(1500)}[mesh]()
+    vm = validate_mesh(V, F)
+    pins, at = _pins(vm)
+    ref, _ = igl.lscm(vm.V, vm.F, pins, at)
+    uv = lscm_uv(vm, pins, at, backend=backend)
+    assert np.abs(uv - ref).max() <= 1e-9 * np.abs(ref).max()
+    np.testing.assert_array_equal(uv[pins], at)
+
+
+def test_lscm_of_a_large_scan_is_libigls_map():
+    """The default backend at a size where it is PARDISO (when installed): 60k unknowns."""
+    from trispline.fit.datasets.truth import truth_scan
+
+    s = truth_scan("bumps", 15_000, sigma=1e-3, outliers=0.005, outlier_sigmas=50.0, seed=1)
+    vm = validate_mesh(s.V, s.F)
+    ref, _ = igl.lscm(vm.V, vm.F, *_pins(vm))
+    uv = raw_map(vm, "lscm")
+    assert np.abs(uv - ref).max() <= 1e-9 * np.abs(ref).max()
+
+
+def test_cotangent_laplacian_is_libigls():
+    V, F = lift(*random_delaunay(200, holes=1, seed=3))
+    L = cotangent_laplacian(V, F)
+    assert abs(L - igl.cotmatrix(V, F)).max() <= 1e-12 * abs(L).max()
+    np.testing.assert_allclose(L @ np.ones(len(V)), 0.0, atol=1e-12)
 
 
 # ------------------------------------------------------------------------------ slim
