@@ -20,7 +20,8 @@ from the data's local shape: ``int |D^2 (F - beta T)|^2``, ``T`` per patch the m
 quintic nets of its three vertices' local fits (equal weights: the ``local`` term's
 corner blend, whose weights vary over the patch, adds second derivatives of its own where
 the fits disagree; as the reference it raised the snail's curvature p99.9 1.9 -> 11), and
-``beta`` the patch's :func:`trust` in those fits. A surface that follows trusted local fits
+``beta`` the patch's :func:`trust` in those fits (times their agreement on the patch,
+:func:`trispline.fit.agreement.local_trust`). A surface that follows trusted local fits
 costs no bending, whatever its curvature, so nothing pulls at the outline; deviations
 (wiggles between the data vertices) are still faired. With ``local = 0`` (no local targets)
 the bend is the plain thin plate.
@@ -30,6 +31,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
+
+from .agreement import local_trust
 
 if TYPE_CHECKING:
     from .energy.context import TermContext
@@ -55,7 +58,8 @@ def bend_reference(ctx: TermContext, blended_targets: Callable) -> np.ndarray:
     none: its bend has a reference of its own); else ``(1, 1, 1)`` zeros (the plain thin plate)."""
     if not (RELATIVE_BEND and ctx.fit is not None and ctx.weights.local > 0 and ctx.weights.bend > 0):
         return np.zeros((1, 1, 1))
-    beta = trust(ctx)[ctx.faces].min(1)  # (n,) a patch trusts the least trusted of its vertices' fits
+    # (n,) a patch trusts the least trusted of its vertices' fits, and only as far as they agree on it
+    beta = trust(ctx)[ctx.faces].min(1) * local_trust(ctx)
     if not beta.any():
         return np.zeros((1, 1, 1))
     return blended_targets(ctx.uv, ctx.faces, ctx.fit.evaluate, power=0.0) * beta[:, None, None]

@@ -16,6 +16,7 @@ import numpy as np
 from trispline.spline.bernstein import basis
 from trispline.spline.index import CORNER, DEGREE, EXPONENTS, NCTRL, STAR
 
+from ..agreement import local_trust
 from ..progress import Report, span
 from .arrays import Array
 
@@ -67,7 +68,8 @@ def setup(ctx: TermContext) -> dict[str, np.ndarray]:
         return dict(index=np.zeros(0, np.int64), target=np.zeros((0, 3)), scale=np.zeros(0))
     target = blended_targets(ctx.uv, ctx.faces, ctx.fit.evaluate, power=w.blend_power, report=ctx.report)
     face, slot = np.nonzero(np.broadcast_to(MASK, (n, NCTRL)))
-    return dict(index=face * NCTRL + slot, target=target[face, slot], scale=np.sqrt(w.local / ctx.areas[face]))
+    return dict(index=face * NCTRL + slot, target=target[face, slot],
+                scale=np.sqrt(w.local / ctx.areas[face]) * local_trust(ctx)[face])  # fit.agreement
 
 
 def residual(ctrl: Array, frames: Array, a: dict) -> Array:

@@ -1,0 +1,73 @@
+"""How far the local targets of a patch can be trusted: do its three vertices' local fits agree on it?
+
+    gamma = local_trust(ctx)        # (n,) in [0, 1], one per patch of the context
+
+Why (issue 18): each vertex's local fit (:func:`~trispline.fit.targets.local_rbf_fit`) is an
+interpolant of its rings, chosen by its leave-one-out error at the few points nearest the
+vertex. Where the mesh is coarse for its curvature, irregular (valence-4 vertices between quad
+strips, long thin triangles) or folded, that error stays small while the interpolant swings
+between the data points; the ``local`` term then pulls the patch's control points onto the
+swing and the bend (measured from the same fits, :mod:`trispline.fit.boundary`) stops fairing
+it. On halftunnel the three fits of the patches that spiked (|H| 25-55x the data's largest)
+differed by 0.6-1.2 of an edge on them; the median patch's fits agree to 0.3% of an edge, a
+clean analytic mesh's to ~1e-5.
+
+The test needs no new fit: the three fits are evaluated at :data:`PROBES` (the centroid and the
+edge midpoints) of every patch, and ``d`` is their largest distance from their mean, over the
+patch's mean 3D edge length. A patch is trusted fully up to :data:`AGREE_OK`, not at all from
+:data:`AGREE_BAD` on, log-linear between; an untrusted patch is faired by the plain thin plate
+and the ``tilt`` term alone (its local weight and its bend reference scaled by ``gamma``).
+"""
+from __future__ import annotations
+
+import weakref
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from .energy.context import TermContext
+
+__all__ = ["AGREE_BAD", "AGREE_OK", "PROBES", "disagreement", "local_trust"]
+
+#: A patch's local fits agreeing to this fraction of its mean edge length are fully trusted.
+AGREE_OK = 0.1
+#: ... and not at all from this fraction on (measured in docs/fit.md, "Spikes").
+AGREE_BAD = 0.5
+#: (4, 3) barycentric points where the three fits are compared: the centroid and the edge midpoints.
+PROBES = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5]])
+
+_cache: list = [None, None]  # [weakref to the last context, its trust]: the local and bend terms share it
+
+
+def _edge_length(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """``(nv,)`` each vertex's mean 3D edge length over the faces ``F``."""
+    e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    length = np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1)
+    return np.bincount(e.ravel(), np.repeat(length, 2), minlength=len(V)) / np.maximum(
+        np.bincount(e.ravel(), minlength=len(V)), 1)
+
+
+def disagreement(ctx: TermContext) -> np.ndarray:
+    """``(n,)``: the largest distance of a patch's three local fits from their mean at :data:`PROBES`,
+    over the mean 3D edge length of its vertices (0 when there are no fits)."""
+    faces = ctx.faces
+    if ctx.fit is None or not len(faces):
+        return np.zeros(len(faces))
+    pts = np.einsum("gk,fkc->fgc", PROBES, ctx.uv[faces])  # (n, 4, 2)
+    N = np.stack([ctx.fit.evaluate(faces[:, k], pts) for k in range(3)], 1)  # (n, 3, 4, d)
+    dev = np.linalg.norm(N - N.mean(1, keepdims=True), axis=-1).max(axis=(1, 2))
+    h = _edge_length(ctx.V, ctx.halo_faces)[faces].mean(1)
+    return dev / np.maximum(h, np.finfo(float).tiny)
+
+
+def local_trust(ctx: TermContext) -> np.ndarray:
+    """``(n,)`` in [0, 1]: the weight of each patch's local targets (see the module docstring);
+    computed once per context."""
+    if _cache[0] is not None and _cache[0]() is ctx:
+        return _cache[1]
+    d = disagreement(ctx)
+    lo, hi = np.log(AGREE_OK), np.log(AGREE_BAD)
+    gamma = np.clip((hi - np.log(np.maximum(d, np.finfo(float).tiny))) / (hi - lo), 0.0, 1.0)
+    _cache[:] = [weakref.ref(ctx), gamma]
+    return gamma
