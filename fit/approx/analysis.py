@@ -72,6 +72,12 @@ class ScanAnalysis:
         residual: the noise where there is noise, the quadric's model error where the data is exact,
         so each vertex is judged against its neighbours; above :data:`SPIKE_LEVELS`: a spike
     smooth : (n, 3) each vertex moved onto its cell's robust quadric (along the quadric's normal)
+    calm : (n,) the same studentized residual as ``roughness`` but against the robust quadric of the
+        coarser curvature grid's cell, over that cell's level: its fit averages ``curvature_points``
+        vertices instead of :data:`POINTS_PER_CELL` (on noise its own error is about
+        ``sigma sqrt(6 / points)`` instead of ``0.4 sigma``), so the vertex of smallest ``calm``
+        near a spot is nearer the smooth surface than the one of smallest ``roughness``: where a
+        corner point that interpolates its data vertex is put (the snap)
     cell : (n,) flat index (``iy * nx + ix``) of each vertex's cell of the curvature grid
     origin : (2,) uv of that grid's corner; step : its cell size in uv; shape : ``(ny, nx)``
     curvature : (ny, nx) RMS principal curvature ``sqrt(k1^2 + k2^2)`` (1 / model units)
@@ -85,6 +91,7 @@ class ScanAnalysis:
     noise: float
     roughness: np.ndarray
     smooth: np.ndarray
+    calm: np.ndarray
     cell: np.ndarray
     origin: np.ndarray
     step: float
@@ -278,12 +285,15 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
     points = max(int(curvature_points), MIN_CELL_POINTS)
     for _ in range(2):  # a noisy scan needs larger cells: the noise's share falls like (points per cell)^-3
         coarse = _Grid(uv, unit * np.sqrt(points))
-        C, Ainv, _ = coarse.fit(V, w)
+        C, Ainv, cref = coarse.fit(V, w)
         kappa, bias = coarse.curvature(C, Ainv, noise)
         target = (CURVATURE_RESOLUTION / max(diagonal, 1e-300)) ** 2
         if bias <= target or points >= n // 16:
             break
         points = int(min(points * (bias / target) ** (1.0 / 3.0), n // 16))
+    rc, _, levc = _residuals(coarse.m, V - cref[coarse.cell], C, Ainv, coarse.cell, w)
+    studc = np.abs(rc) / np.sqrt(np.maximum(1.0 - levc, LEVERAGE_FLOOR))
+    levelc = np.maximum(MAD_TO_SIGMA * _cell_median(studc, coarse.cell, coarse.n)[coarse.cell], LEVEL_FLOOR * diagonal)
     fc = _cell_index(uv[F].mean(1), coarse.origin, coarse.step, coarse.shape)
     a3 = face_areas_3d(V, F)
     s3, suv = np.bincount(fc, a3, minlength=coarse.n), np.bincount(fc, auv, minlength=coarse.n)
@@ -294,7 +304,7 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
     scan_spacing = _fill(np.sqrt(np.where(dense, suv / np.maximum(cnt, 1), 0.0)).reshape(coarse.shape),
                          dense.reshape(coarse.shape))
     return ScanAnalysis(residual=np.abs(loo), noise=noise, roughness=np.abs(loo) / np.maximum(level, 1e-300),
-                        smooth=V - r[:, None] * nrm,
+                        smooth=V - r[:, None] * nrm, calm=studc / levelc,
                         cell=_cell_index(uv, coarse.origin, coarse.step, coarse.shape), origin=coarse.origin,
                         step=coarse.step, shape=coarse.shape, curvature=kappa, scale=scale, scan_spacing=scan_spacing,
                         area=s3.reshape(coarse.shape), diagonal=diagonal)

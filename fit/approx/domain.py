@@ -85,6 +85,8 @@ BUDGET_PASSES = 3
 SNAP_RADIUS = 0.3
 #: ... inside the coarse polygon, at least this times the Triangle point's distance from its boundary.
 SNAP_CLEARANCE = 0.5
+#: The snap's score weighs ``(calm / SNAP_CALM)^2`` against ``(distance / radius)^2``.
+SNAP_CALM = 0.5
 #: Scan vertices considered per Triangle point.
 SNAP_CANDIDATES = 16
 #: Default of :func:`insert`'s ``min_separation`` (in face sizes).
@@ -217,8 +219,8 @@ class _ScanIndex:
         self.on_boundary = np.zeros(uv.shape[0], bool)
         self.on_boundary[np.concatenate(loops)] = True
 
-    def snap(self, mesh: tuple[np.ndarray, np.ndarray], nb: int, spacing: np.ndarray, roughness: np.ndarray
-             ) -> np.ndarray:
+    def snap(self, mesh: tuple[np.ndarray, np.ndarray], nb: int, spacing: np.ndarray, roughness: np.ndarray,
+             calm: np.ndarray) -> np.ndarray:
         """Scan ids ``(<= s,)`` for the points Triangle added (``mesh[0][nb:]``); module docstring, step 5.
 
         A candidate must lie inside the coarse polygon (the quality mesh covers it exactly)
@@ -241,7 +243,7 @@ class _ScanIndex:
         inside = poly.locator(c)[0] >= 0
         ok[near] = inside & (np.linalg.norm(poly.project(c)[2] - c, axis=1) >= SNAP_CLEARANCE * np.broadcast_to(
             gap[:, None], cand.shape)[near])
-        score = np.where(ok, (dist / radius) ** 2 + (roughness[cand] / 3.0) ** 2, np.inf)
+        score = np.where(ok, (dist / radius) ** 2 + (calm[cand] / SNAP_CALM) ** 2, np.inf)
         j = np.argmin(score, axis=1)
         rows = np.arange(points.shape[0])
         good = np.isfinite(score[rows, j])
@@ -417,7 +419,7 @@ def _choose(uv: np.ndarray, loops: tuple[np.ndarray, ...], sizing: _Sizing, lam:
         P = uv[np.concatenate(boundary)]
         mesh = _quality_mesh(P, loop_segments([b.size for b in boundary]), hole_seeds([uv[b] for b in boundary]),
                              sizing, lam)
-        interior = index.snap(mesh, nb, sizing.spacing(lam, mesh[0][nb:]), sizing.a.roughness)
+        interior = index.snap(mesh, nb, sizing.spacing(lam, mesh[0][nb:]), sizing.a.roughness, sizing.a.calm)
         total = nb + interior.size
         if budget is None or 0.97 * budget <= total <= budget:
             break

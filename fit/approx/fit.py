@@ -33,7 +33,7 @@ from .domain import CoarseDomain
 from ..energy.data import DataPoints
 from .problem import CORNER_MODES, ApproxProblem, plain_system, residual_function, robust_points, setup_problem
 
-__all__ = ["CoarseFit", "fit_domain", "scan_parameters", "quadric_reference", "cross_validated_weight",
+__all__ = ["CoarseFit", "fit_domain", "bend_face_weights", "BEND_WEIGHT_RANGE", "scan_parameters", "quadric_reference", "cross_validated_weight",
            "APPROX_WEIGHTS", "DATA_WEIGHTS", "EXTRAPOLATION"]
 
 #: Default weights of the approximation: thin-plate (less the reference quadric) and data. The
@@ -51,6 +51,8 @@ QUADRIC_POWERS = np.array([(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)])
 #: the robust loss's matrix). Measured on the 100k-face speed scan: "direct" 5 steps, compile 6.2 s and
 #: run 0.8 s against "pcg" 5 steps, 8.4 s and 1.2 s (load 9 on 2 cores); both converged.
 GN_MODE = "direct"
+#: Largest factor of :func:`bend_face_weights`, either way.
+BEND_WEIGHT_RANGE = 1e4
 #: A scan point outside the coarse polygon extrapolates its patch down to this barycentric coordinate.
 EXTRAPOLATION = -0.5
 
@@ -103,6 +105,25 @@ def quadric_reference(dom: CoarseDomain, V: np.ndarray) -> Polynomial:
     return Polynomial(powers=QUADRIC_POWERS, coeffs=coeffs, centre=centre)
 
 
+def bend_face_weights(dom: CoarseDomain) -> np.ndarray:
+    """``(f,)`` the thin-plate energy's factor per coarse face: the map's area ratio over the face's.
+
+    Over uv, the thin-plate energy of a given 3D shape scales like the map's local area ratio
+    ``lambda^2`` (3D area over uv area; second derivatives grow like ``lambda^2``, the uv area
+    shrinks like ``lambda^-2``); the data term per uv area grows like ``lambda^2`` as well, so its
+    balance would smooth a region the map compresses over a 3D length ``sqrt(lambda)`` times longer.
+    The factor ``rho / lambda_f^2`` (``rho`` the whole domain's ratio; each face's from its corners'
+    denoised positions, clipped to :data:`BEND_WEIGHT_RANGE` either way) makes the smoothing length
+    uniform in 3D; 1 everywhere for an isometric map.
+    """
+    P = dom.analysis.smooth[dom.vertices][dom.faces]  # (f, 3, 3)
+    a3 = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
+    auv = dom.triangulation.areas
+    rho = float(a3.sum()) / max(float(auv.sum()), 1e-300)
+    ratio = a3 / np.maximum(auv, 1e-300)
+    return np.clip(rho / np.maximum(ratio, 1e-300), 1.0 / BEND_WEIGHT_RANGE, BEND_WEIGHT_RANGE)
+
+
 def _normalisation(V: np.ndarray) -> tuple[np.ndarray, float]:
     """``(centre (3,), size)``: the fit works on ``(V - centre) / size`` (optimistix's stopping tests are per element)."""
     return 0.5 * (V.min(0) + V.max(0)), float(np.ptp(V, axis=0).max()) or 1.0
@@ -136,7 +157,7 @@ def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeig
     corner_xyz = Vn[dom.vertices] if corners == "data" else None
     ref_net = _reference_net(dom, V, None, centre, size)
     train = DataPoints(face[~test], bary[~test], Vn[~test])
-    sys = plain_system(space, train, corner_xyz, weights, "l2", ref_net)
+    sys = plain_system(space, train, corner_xyz, weights, "l2", ref_net, bend_weight=bend_face_weights(dom))
     B = basis(bary[test])
     scores = {}
     for w in candidates:
@@ -184,7 +205,7 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
     points = robust_points(face, bary, (V - centre) / size, loss, (size if scale is None else np.asarray(scale)) / size)
     corner_xyz = (V[dom.vertices] - centre) / size if corners == "data" else None
     ref_net = _reference_net(dom, V, reference, centre, size)
-    prob = setup_problem(space, points, corner_xyz, weights, loss, ref_net, point_weight)
+    prob = setup_problem(space, points, corner_xyz, weights, loss, ref_net, point_weight, bend_face_weights(dom))
     factor = SparseCholesky(prob.H)
     x, steps, ok = _solve(prob, factor, solver, max_steps, gauss_newton)
     free = np.zeros((space.n_free, 3))

@@ -59,7 +59,7 @@ INITIAL_FRACTION = 0.005
 #: ... and at least this many vertices.
 INITIAL_MIN = 24
 #: Refinement rounds at most.
-MAX_ROUNDS = 12
+MAX_ROUNDS = 20
 #: Reweighted least-squares steps after each round's plain fit (a robust loss).
 IRLS_STEPS = 1
 

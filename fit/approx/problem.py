@@ -126,7 +126,8 @@ class PlainSystem:
 
 
 def plain_system(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray | None, weights: FitWeights,
-                 loss: str, reference: np.ndarray, point_weight: np.ndarray | None = None) -> PlainSystem:
+                 loss: str, reference: np.ndarray, point_weight: np.ndarray | None = None,
+                 bend_weight: np.ndarray | None = None) -> PlainSystem:
     """The split normal equations of :func:`setup_problem` (same parameters)."""
     if corner_xyz is None:
         unknowns = np.arange(space.n_free)
@@ -139,6 +140,8 @@ def plain_system(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray 
     c0 = np.zeros((space.n_points, 3)) if corner_xyz is None else np.asarray(M[:, space.corner_free] @ corner_xyz)
     ctx = _context(space, weights, points, points.face.size)
     terms = {"bend": bend.setup(ctx), "data": DATA_LOSSES[loss].setup(ctx), "reference": reference}
+    if bend_weight is not None:  # per patch: W carries sqrt(weight area)
+        terms["bend"]["W"] = terms["bend"]["W"] * np.sqrt(np.asarray(bend_weight, float))[:, None, None]
     A = M_u[np.asarray(space.point_index).ravel()]
     c = c0[np.asarray(space.point_index).ravel()]
     parts = en.NormalParts.zeros(space.tri.n_faces, 0)
@@ -156,7 +159,8 @@ def plain_system(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray 
 
 
 def setup_problem(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray | None, weights: FitWeights,
-                  loss: str, reference: np.ndarray, point_weight: np.ndarray | None = None) -> ApproxProblem:
+                  loss: str, reference: np.ndarray, point_weight: np.ndarray | None = None,
+                  bend_weight: np.ndarray | None = None) -> ApproxProblem:
     """The problem for scan ``points`` located in ``space``'s domain (normalised coordinates).
 
     Parameters
@@ -169,8 +173,10 @@ def setup_problem(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray
     reference : (f, 21, 3) the bend term's reference surface, per patch
     point_weight : (n,) weights of the points in ``H`` and ``rhs`` only (iteratively reweighted
         least squares: the robust loss's weights at an earlier fit); the residuals keep the loss
+    bend_weight : (f,) a factor of the thin-plate energy per patch (:func:`~.fit.bend_face_weights`:
+        the map's area distortion taken out), or None (1)
     """
-    s = plain_system(space, points, corner_xyz, weights, loss, reference, point_weight)
+    s = plain_system(space, points, corner_xyz, weights, loss, reference, point_weight, bend_weight)
     H = sp.csr_array(s.H_bend + s.H_data)
     return _padded_problem(s.M_u, s.c0, space.point_index, s.terms, H, s.rhs_bend + s.rhs_data, s.unknowns, loss)
 
