@@ -7,7 +7,9 @@
     a.lookup(a.curvature, points)       # the cell values at uv points (k, 2)
 
 The uv bounding box is cut into square cells of about :data:`POINTS_PER_CELL`
-vertices. In each cell the three coordinates are fitted by quadratics in the
+vertices; where the map compresses the surface, so that a cell holds many times that,
+those vertices are fitted again on cells of half the size, and so on (cells adapted to
+the map's local scale: an LSCM map's area ratio varies by 1e4-1e6 on the shared scans). In each cell the three coordinates are fitted by quadratics in the
 cell's local uv, ``x(u, v) = sum c_k m_k(u, v)``, ``m = (1, u, v, u^2, uv, v^2)``,
 from the weighted normal equations (sums over cells as one sparse product, so
 linear in the scan and no per-cell Python loop), then refitted with Cauchy
@@ -37,6 +39,12 @@ __all__ = ["ScanAnalysis", "analyse_scan", "POINTS_PER_CELL", "CURVATURE_POINTS"
 
 #: Vertices per cell aimed at (6 unknowns per coordinate: the fit averages over about 7x more points).
 POINTS_PER_CELL = 40
+#: A cell holding more than this many times :data:`POINTS_PER_CELL` vertices is split (:func:`_adaptive_fits`).
+SPLIT_POINTS = 4.0
+#: Most halvings of the cell step.
+MAX_LEVELS = 10
+#: A finer level's grid has at most this many cells per vertex it fits (its box, mostly empty elsewhere).
+MAX_LEVEL_CELLS = 4.0
 #: Vertices per cell of the curvature grid (default; the coarse domain asks for its own scale).
 CURVATURE_POINTS = 200
 #: The curvature grid's cells grow until the noise's share of ``kappa`` is about this over the diagonal.
@@ -253,6 +261,49 @@ class _Grid:
         return smooth, float(np.median(bias[valid.reshape(-1)])) if valid.any() else 0.0
 
 
+def _robust_fit(grid: _Grid, V: np.ndarray, diagonal: float) -> tuple[np.ndarray, ...]:
+    """The robust quadric fits of ``grid``'s cells to ``V (k, 3)``: per vertex ``(r, nrm, loo, stud,
+    level, w)``, the signed residual, the quadric's normal ``(k, 3)``, the leave-one-out and the
+    studentized residual, the cell's level and the Cauchy weight of the last refit."""
+    w = np.ones(V.shape[0])
+    for _ in range(REFITS + 1):
+        C, Ainv, ref = grid.fit(V, w)
+        r, nrm, lev = _residuals(grid.m, V - ref[grid.cell], C, Ainv, grid.cell, w)
+        # leave-one-out residuals r / (1 - h): a vertex the fit bends to (high leverage) is not hidden
+        loo = r / np.maximum(1.0 - lev, LEVERAGE_FLOOR)
+        stud = np.abs(r) / np.sqrt(np.maximum(1.0 - lev, LEVERAGE_FLOOR))
+        # the local level: noise where there is noise, the quadric's model error where the data is exact
+        level = np.maximum(MAD_TO_SIGMA * _cell_median(stud, grid.cell, grid.n)[grid.cell], LEVEL_FLOOR * diagonal)
+        w = 1.0 / (1.0 + (loo / (CAUCHY_SCALE * level)) ** 2)
+    return r, nrm, loo, stud, level, w
+
+
+def _adaptive_fits(V: np.ndarray, uv: np.ndarray, step: float, diagonal: float) -> tuple[np.ndarray, ...]:
+    """:func:`_robust_fit` per vertex on cells adapted to the map's local scale: a vertex whose cell
+    holds more than :data:`SPLIT_POINTS` times :data:`POINTS_PER_CELL` (a region the map compresses:
+    one uniform cell would span a large, curved part of the surface) is fitted again on a grid of half
+    the step over those vertices alone, down to :data:`MAX_LEVELS` halvings or :data:`MAX_LEVEL_CELLS`
+    times their count in cells."""
+    n = V.shape[0]
+    out = [np.empty(n), np.empty((n, 3)), np.empty(n), np.empty(n), np.empty(n), np.empty(n)]
+    todo = np.arange(n)
+    for k in range(MAX_LEVELS + 1):
+        grid = _Grid(uv[todo], step / 2**k)
+        res = _robust_fit(grid, V[todo], diagonal)
+        dense = grid.count[grid.cell] > SPLIT_POINTS * POINTS_PER_CELL
+        nxt = todo[dense]
+        span = np.ptp(uv[nxt], axis=0) if nxt.size else np.zeros(2)
+        more = (k < MAX_LEVELS and nxt.size >= SPLIT_POINTS * POINTS_PER_CELL
+                and np.prod(span / (step / 2 ** (k + 1)) + 1) <= MAX_LEVEL_CELLS * nxt.size)
+        done = ~dense if more else np.ones(todo.size, bool)
+        for o, x in zip(out, res):
+            o[todo[done]] = x[done]
+        if not more:
+            break
+        todo = nxt
+    return tuple(out)
+
+
 def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_points: int = CURVATURE_POINTS
                  ) -> ScanAnalysis:
     """Robust local quadric fits of the scan ``V (n, 3)``, ``F (m, 3)`` over its uv map ``uv (n, 2)``.
@@ -269,19 +320,9 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
     n = V.shape[0]
     auv = np.abs(signed_areas(uv, F))
     unit = float(np.sqrt(max(float(auv.sum()), 1e-300) / n))  # uv spacing of the scan
-    fine = _Grid(uv, unit * np.sqrt(POINTS_PER_CELL))
-    w = np.ones(n)
     diagonal = float(np.linalg.norm(V.max(0) - V.min(0)))
-    for _ in range(REFITS + 1):
-        C, Ainv, ref = fine.fit(V, w)
-        r, nrm, lev = _residuals(fine.m, V - ref[fine.cell], C, Ainv, fine.cell, w)
-        # leave-one-out residuals r / (1 - h): a vertex the fit bends to (high leverage) is not hidden
-        loo = r / np.maximum(1.0 - lev, LEVERAGE_FLOOR)
-        stud = np.abs(r) / np.sqrt(np.maximum(1.0 - lev, LEVERAGE_FLOOR))
-        noise = MAD_TO_SIGMA * float(np.median(stud))
-        # the local level: noise where there is noise, the quadric's model error where the data is exact
-        level = np.maximum(MAD_TO_SIGMA * _cell_median(stud, fine.cell, fine.n)[fine.cell], LEVEL_FLOOR * diagonal)
-        w = 1.0 / (1.0 + (loo / (CAUCHY_SCALE * level)) ** 2)
+    r, nrm, loo, stud, level, w = _adaptive_fits(V, uv, unit * np.sqrt(POINTS_PER_CELL), diagonal)
+    noise = MAD_TO_SIGMA * float(np.median(stud))
     points = max(int(curvature_points), MIN_CELL_POINTS)
     for _ in range(2):  # a noisy scan needs larger cells: the noise's share falls like (points per cell)^-3
         coarse = _Grid(uv, unit * np.sqrt(points))

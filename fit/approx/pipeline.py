@@ -60,6 +60,8 @@ INITIAL_FRACTION = 0.005
 INITIAL_MIN = 24
 #: Refinement rounds at most.
 MAX_ROUNDS = 20
+#: Tries of a refinement round's insertion, each with the faces' next candidates (:func:`_grow`).
+GROW_TRIES = 3
 #: Reweighted least-squares steps after each round's plain fit (a robust loss).
 IRLS_STEPS = 1
 
@@ -366,13 +368,21 @@ def _insert(dom: CoarseDomain, ids: np.ndarray) -> CoarseDomain:
 
 def _grow(dom: CoarseDomain, state: Round, threshold: float, room: int, budget: int) -> CoarseDomain:
     """``dom`` with the vertices :func:`~.refine.pick_vertices` asks for (faces over ``threshold``, at most
-    ``room``), within the budget."""
-    ids = pick_vertices(state, threshold, room)
-    new = _insert(dom, ids) if ids.size else dom
-    while new.stats.n_vertices > budget and ids.size > 1:  # chord splits can add a few
-        ids = ids[: ids.size // 2]
+    ``room``), within the budget. Where none of them could be inserted (each skipped, or chords that
+    would cross), the faces' next candidates are tried, :data:`GROW_TRIES` times at most."""
+    tried = np.empty(0, np.int64)
+    for _ in range(GROW_TRIES):
+        ids = pick_vertices(state, threshold, room, exclude=tried)
+        if ids.size == 0:
+            return dom
         new = _insert(dom, ids)
-    return new if new.stats.n_vertices <= budget else dom
+        while new.stats.n_vertices > budget and ids.size > 1:  # chord splits can add a few
+            ids = ids[: ids.size // 2]
+            new = _insert(dom, ids)
+        if dom.stats.n_vertices < new.stats.n_vertices <= budget:
+            return new
+        tried = np.union1d(tried, ids)
+    return dom
 
 
 def _refine(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None, max_rounds: int,

@@ -80,11 +80,12 @@ def measure(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit, located: tuple[np.
                  inliers=summary(dev.distance, ~rejected), seconds=seconds)
 
 
-def pick_vertices(state: Round, tolerance: float, room: int) -> np.ndarray:
+def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray | None = None) -> np.ndarray:
     """Scan ids ``(<= room,)`` to insert: per coarse face holding an inlier over ``tolerance``, its best candidate.
 
     A face counts when any inlier located in it is over the tolerance, and every face around a
-    coarse vertex whose own point is (with ``corners="fit"`` a corner can miss its vertex). Its candidates are all its
+    coarse vertex whose own point is (with ``corners="fit"`` a corner can miss its vertex); a face that counts
+    but has no candidate passes its count to its edge neighbours. Its candidates are all its
     scan points but coarse vertices, rejected points and interior spikes (a scan boundary vertex
     may be one: the leave-one-out residual of the scan analysis is large at a corner of the
     outline even on exact data) and points :func:`~.domain.insert` would skip (too near a vertex
@@ -92,7 +93,8 @@ def pick_vertices(state: Round, tolerance: float, room: int) -> np.ndarray:
     INTERIOR_BARY + 0.25) / (1 + (roughness / ROUGHNESS_SCALE)^2)`` (``b`` the smallest
     barycentric coordinate, taken as ``INTERIOR_BARY`` for a scan boundary vertex: it moves the
     coarse boundary out to the scan's). Faces go in order of their largest deviation, at most
-    ``room`` and at most ``(GROWTH - 1)`` times the vertex count.
+    ``room`` and at most ``(GROWTH - 1)`` times the vertex count. ``exclude``: scan ids not to pick
+    (ones an earlier try could not insert).
     """
     dom, d = state.dom, state.deviation.distance
     face, bary = state.located
@@ -106,14 +108,21 @@ def pick_vertices(state: Round, tolerance: float, room: int) -> np.ndarray:
     limit = int(min(room, np.ceil((GROWTH - 1.0) * dom.stats.n_vertices)))
     on_loop = np.zeros(d.size, bool)
     on_loop[np.concatenate(dom.loops)] = True
-    cand = (worst[face] > 0) & (~dom.analysis.spike | on_loop) & ~state.rejected
-    cand[dom.vertices] = False
-    ids = np.flatnonzero(cand)
-    if ids.size == 0 or limit <= 0:
-        return np.empty(0, np.int64)
+    usable = (~dom.analysis.spike | on_loop) & ~state.rejected
+    usable[dom.vertices] = False
+    if exclude is not None:
+        usable[exclude] = False
+    ids = np.flatnonzero(usable)
     corner, chord, _ = separation(dom, dom.scan_uv[ids])
     ids = ids[(corner >= MIN_SEPARATION) | (chord < MIN_SEPARATION) | on_loop[ids]]  # what insert would skip: not
-    if ids.size == 0:
+    has = np.zeros(dom.stats.n_faces, bool)
+    has[face[ids]] = True
+    orphan = np.flatnonzero((worst > 0) & ~has)  # over the tolerance, nothing to insert: its neighbours instead
+    adj = dom.triangulation.face_adjacency[orphan]
+    ok = adj >= 0
+    np.maximum.at(worst, adj[ok], np.broadcast_to(worst[orphan][:, None], adj.shape)[ok])
+    ids = ids[worst[face[ids]] > 0]
+    if ids.size == 0 or limit <= 0:
         return np.empty(0, np.int64)
     inside = np.minimum(1.0, np.clip(bary[ids].min(1), 0.0, None) / INTERIOR_BARY + 0.25)
     inside[on_loop[ids]] = 1.0  # a scan boundary vertex splits its chord: no sliver

@@ -127,6 +127,18 @@ def test_vertices_avoid_noise_spikes():
     assert np.median(a.residual[dom.vertices]) < 0.8 * np.median(a.residual)
 
 
+def test_corner_vertices_sit_where_the_data_is_calm():
+    """The snap picks, near each point, the scan vertex nearest the larger-scale smooth estimate:
+    the chosen interior vertices' noise is a fraction of the scan's."""
+    scan = truth_scan("bumps", 50_000, sigma=1e-3, seed=2)
+    dom = coarse_domain(scan.V, scan.F, scan.params, n_vertices=1000)
+    nb = sum(b.size for b in dom.boundary)
+    inner = dom.vertices[nb:]
+    noise = np.abs(scan.distance_to_truth(scan.V[inner])) / scan.sigma
+    assert np.sqrt(np.mean(noise**2)) < 0.35  # a random vertex: 1
+    assert dom.stats.min_angle > 15.0
+
+
 def test_denser_where_the_data_bends():
     uv, F = grid_with_hole(20_000, seed=4)
     z = 0.3 * np.exp(-40 * ((uv[:, 0] + 0.5) ** 2 + uv[:, 1] ** 2))  # a sharp bump on the left, flat on the right

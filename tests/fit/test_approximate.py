@@ -12,7 +12,9 @@ jax.config.update("jax_enable_x64", True)
 from trispline.fit.approx import (  # noqa: E402
     APPROX_WEIGHTS, approximate_surface, coarse_domain, fit_domain, scan_parameters,
 )
-from trispline.fit.approx.fit import DATA_WEIGHTS, EXTRAPOLATION, cross_validated_weight, quadric_reference  # noqa: E402,E501
+from trispline.fit.approx.fit import (  # noqa: E402
+    BEND_WEIGHT_RANGE, DATA_WEIGHTS, EXTRAPOLATION, bend_face_weights, cross_validated_weight, quadric_reference,
+)
 from trispline.fit.approx.pipeline import loss_scale  # noqa: E402
 from trispline.fit.datasets.truth import grid_with_hole, truth_scan  # noqa: E402
 from trispline.fit.energy import robust  # noqa: E402
@@ -241,3 +243,44 @@ def test_cross_validation_smooths_noise_and_keeps_detail():
     res = approximate_surface(noisy.V, noisy.F, uv=noisy.params, n_vertices=150, corners="fit", loss="l2",
                               max_rounds=1)  # one domain of the whole budget: the one scored above
     assert res.stats["cross_validated"] and res.stats["data_weight"] == w["noisy"] == res.weights.data
+
+
+def conformal(st: np.ndarray, a: float = 1.5) -> np.ndarray:
+    """``exp(a (s + i t))`` as uv: a conformal map whose scale grows like ``exp(a s)`` (area ratio ``e^(4a)``)."""
+    r = np.exp(a * st[:, 0])
+    return np.column_stack([r * np.cos(a * st[:, 1]), r * np.sin(a * st[:, 1])])
+
+
+def test_bend_weights_take_the_maps_area_distortion_out():
+    V, F, st = height_field(PLANE, n=2000)
+    dom = coarse_domain(V, F, st, n_vertices=80)
+    w = bend_face_weights(dom)
+    assert w.shape == (dom.stats.n_faces,)
+    np.testing.assert_allclose(w, 1.0, rtol=1e-9)  # a plane over its own uv: the ratio is the same everywhere
+    # over exp(1.5 z): 3D length per uv length exp(-1.5 s), so the weight grows like exp(3 s)
+    dom2 = coarse_domain(V, F, conformal(st), n_vertices=120)
+    w2 = bend_face_weights(dom2)
+    s_c = V[dom2.vertices][dom2.faces][:, :, 0].mean(1)
+    slope = np.polyfit(s_c, np.log(w2), 1)[0]
+    assert slope == pytest.approx(3.0, rel=0.1)
+    assert (w2 >= 1.0 / BEND_WEIGHT_RANGE).all() and (w2 <= BEND_WEIGHT_RANGE).all()
+
+
+def test_distorted_map_smooths_no_more_where_it_compresses(monkeypatch):
+    """A bumpy surface over a conformal map whose area ratio varies 400x: the fit where the map
+    compresses the surface is about as close as where it stretches it (without the bend weights: 2x worse)."""
+    st, F = grid_with_hole(6000, seed=3)
+    V = np.column_stack([st, 0.1 * np.sin(4 * st[:, 0]) * np.cos(5 * st[:, 1])])
+    from trispline.fit.approx.deviation import surface_deviation
+
+    def ratio() -> float:
+        res = approximate_surface(V, F, uv=conformal(st), n_vertices=200, loss="l2", weights=APPROX_WEIGHTS)
+        d = surface_deviation(res.surface, V).distance
+        rms = [float(np.sqrt(np.mean(d[m] ** 2))) for m in (st[:, 0] < -0.4, st[:, 0] > 0.4)]
+        return rms[0] / rms[1]  # s < 0: 3D length per uv length large (compressed)
+
+    assert ratio() < 1.3  # measured 0.86
+    import trispline.fit.approx.fit as fit_module
+
+    monkeypatch.setattr(fit_module, "bend_face_weights", lambda dom: np.ones(dom.stats.n_faces))
+    assert ratio() > 1.6  # measured 2.2: the test can fail
