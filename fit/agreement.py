@@ -12,6 +12,11 @@ it. On halftunnel the three fits of the patches that spiked (|H| 25-55x the data
 differed by 0.6-1.2 of an edge on them; the median patch's fits agree to 0.3% of an edge, a
 clean analytic mesh's to ~1e-5.
 
+On a sliver the same disagreement costs more: the neighbours' targets differ by ``delta`` across a
+width ``w`` much below the edge length, a bend of ``delta / w^2`` (beetle's two slivers of uv
+aspect 220, fits agreeing to 1e-3 of an edge: |H| 34x the data's largest). So on a patch thinner
+than :data:`THIN_OK` the disagreement counts ``(thinness / THIN_OK)**THIN_POWER`` times.
+
 The test needs no new fit: the three fits are evaluated at :data:`PROBES` (the centroid and the
 edge midpoints) of every patch, and ``d`` is their largest distance from their mean, over the
 patch's mean 3D edge length. A patch is trusted fully up to :data:`AGREE_OK`, not at all from
@@ -28,12 +33,16 @@ import numpy as np
 if TYPE_CHECKING:
     from .energy.context import TermContext
 
-__all__ = ["AGREE_BAD", "AGREE_OK", "PROBES", "disagreement", "local_trust"]
+__all__ = ["AGREE_BAD", "AGREE_OK", "PROBES", "THIN_OK", "THIN_POWER", "disagreement", "local_trust"]
 
 #: A patch's local fits agreeing to this fraction of its mean edge length are fully trusted.
 AGREE_OK = 0.1
 #: ... and not at all from this fraction on (measured in docs/fit.md, "Spikes").
 AGREE_BAD = 0.5
+#: Patches thinner than this in uv (longest edge over height, relative to an equilateral triangle's;
+#: beetle's p99 10.9) count their disagreement times ``(thinness / THIN_OK)**THIN_POWER``.
+THIN_OK = 10.0
+THIN_POWER = 3
 #: (4, 3) barycentric points where the three fits are compared: the centroid and the edge midpoints.
 PROBES = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5]])
 
@@ -46,6 +55,15 @@ def _edge_length(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     length = np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1)
     return np.bincount(e.ravel(), np.repeat(length, 2), minlength=len(V)) / np.maximum(
         np.bincount(e.ravel(), minlength=len(V)), 1)
+
+
+def _thinness(P: np.ndarray) -> np.ndarray:
+    """``(n,)`` >= 1: the longest edge of each triangle ``P (n, 3, k)`` over its height onto that edge,
+    relative to an equilateral triangle's (1 there, ~100 for a sliver of aspect 200)."""
+    L2 = np.stack([((P[:, (k + 1) % 3] - P[:, k]) ** 2).sum(1) for k in range(3)], 1).max(1)
+    a, b = P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]
+    dbl = np.sqrt(np.maximum((a * a).sum(1) * (b * b).sum(1) - (a * b).sum(1) ** 2, 0.0))  # twice the area
+    return np.maximum(np.sqrt(3.0) / 2.0 * L2 / np.maximum(dbl, np.finfo(float).tiny), 1.0)
 
 
 def disagreement(ctx: TermContext) -> np.ndarray:
@@ -61,13 +79,18 @@ def disagreement(ctx: TermContext) -> np.ndarray:
     return dev / np.maximum(h, np.finfo(float).tiny)
 
 
+def _fade(d: np.ndarray) -> np.ndarray:
+    """1 up to :data:`AGREE_OK`, 0 from :data:`AGREE_BAD` on, log-linear between."""
+    lo, hi = np.log(AGREE_OK), np.log(AGREE_BAD)
+    return np.clip((hi - np.log(np.maximum(d, np.finfo(float).tiny))) / (hi - lo), 0.0, 1.0)
+
+
 def local_trust(ctx: TermContext) -> np.ndarray:
     """``(n,)`` in [0, 1]: the weight of each patch's local targets (see the module docstring);
     computed once per context."""
     if _cache[0] is not None and _cache[0]() is ctx:
         return _cache[1]
-    d = disagreement(ctx)
-    lo, hi = np.log(AGREE_OK), np.log(AGREE_BAD)
-    gamma = np.clip((hi - np.log(np.maximum(d, np.finfo(float).tiny))) / (hi - lo), 0.0, 1.0)
-    _cache[:] = [weakref.ref(ctx), gamma]
-    return gamma
+    thin = np.maximum(_thinness(ctx.uv[ctx.faces]) / THIN_OK, 1.0)
+    d = disagreement(ctx) * thin ** THIN_POWER
+    _cache[:] = [weakref.ref(ctx), _fade(d)]
+    return _cache[1]

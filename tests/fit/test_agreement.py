@@ -66,3 +66,12 @@ def test_the_trust_scales_the_local_weights():
     face = a["index"] // 21
     around = (ctx.faces[face] == v).any(1)
     assert (a["scale"][around] == 0).all() and (a["scale"][~around] > 0).all()
+
+
+def test_thinness_is_one_on_equilateral_triangles_and_grows_like_the_aspect():
+    eq = np.array([[[0, 0], [1, 0], [0.5, np.sqrt(3) / 2]]])
+    sliver = np.array([[[0, 0], [1, 0], [0.5, 0.01]]])
+    np.testing.assert_allclose(agreement._thinness(eq), 1.0)
+    np.testing.assert_allclose(agreement._thinness(sliver), np.sqrt(3) / 2 / 0.01)
+    lifted = np.concatenate([sliver, np.zeros((1, 3, 1))], 2)  # the same in 3D
+    np.testing.assert_allclose(agreement._thinness(lifted), agreement._thinness(sliver))
