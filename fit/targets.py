@@ -132,12 +132,34 @@ def _poly3(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 EVAL_CHUNK = 1 << 17
 
 
-def _kernel(r2: np.ndarray, power) -> np.ndarray:
-    """``r**power`` from squared distances, for odd integer powers 3, 5, 7 (scalar or broadcast)."""
-    r3 = r2 * np.sqrt(r2)
+def _squared_distances(P: np.ndarray, C: np.ndarray) -> np.ndarray:
+    """``(b, p, K)`` squared distances between points ``P (b, p, 2)`` and centres ``C (b, K, 2)``.
+
+    ``dx * dx + dy * dy`` with two buffers of the result's size (the plain expression makes five:
+    fresh memory costs more than the arithmetic here).
+    """
+    r2 = np.subtract(P[:, :, None, 0], C[:, None, :, 0])
+    np.multiply(r2, r2, out=r2)
+    dy = np.subtract(P[:, :, None, 1], C[:, None, :, 1])
+    np.multiply(dy, dy, out=dy)
+    r2 += dy
+    return r2
+
+
+def _kernel(r2: np.ndarray, power, *, overwrite: bool = False) -> np.ndarray:
+    """``r**power`` from squared distances ``r2`` (an array), for odd integer powers 3, 5, 7 (scalar or
+    broadcast). ``overwrite``: ``r2`` may be used as workspace (one temporary instead of three);
+    the roundings are the same either way: ``r2 sqrt(r2)``, times ``r2`` or ``r2 r2``."""
+    phi = np.sqrt(r2)
+    phi *= r2  # r^3
     if np.ndim(power) == 0:
-        return r3 * r2 ** ((int(power) - 3) // 2)
-    return r3 * np.where(power == 3, 1.0, np.where(power == 5, r2, r2 * r2))
+        if int(power) == 5:
+            phi *= r2
+        elif int(power) == 7:
+            phi *= np.multiply(r2, r2, out=r2 if overwrite else None)
+        return phi
+    phi *= np.where(power == 3, 1.0, np.where(power == 5, r2, r2 * r2))
+    return phi
 
 
 @dataclass(frozen=True)
@@ -197,11 +219,10 @@ class LocalRBFFit:
             power = self.power[v]
             if not power.any():
                 return  # linear fits only: no kernel terms
-            C = self.centres[v]
-            dx = X[:, :, None, 0] - C[:, None, :, 0]
-            dy = X[:, :, None, 1] - C[:, None, :, 1]
             uniform = (power == power[0]).all()
-            out[g] += _kernel(dx * dx + dy * dy, power[0] if uniform else power[:, None, None]) @ self.lam[v]
+            phi = _kernel(_squared_distances(X, self.centres[v]), power[0] if uniform else power[:, None, None],
+                          overwrite=True)
+            out[g] += phi @ self.lam[v]
 
         with Workers(m * p * K, parallel_min=2 * EVAL_CHUNK) as work:
             map_reporting(work, part, m, step, report)
@@ -258,8 +279,12 @@ def _kernel_matrix(r3: np.ndarray, r2: np.ndarray, pair: np.ndarray, P0: np.ndar
     """
     b, K = r2.shape[:2]
     out = np.empty((b, K + m, K + m))
-    phi = r3 if p == 3 else (r3 * r2 if p == 5 else r3 * (r2 * r2))
-    np.multiply(phi, pair, out=out[:, :K, :K])  # zero between padded centres
+    phi = out[:, :K, :K]
+    if p == 3:
+        np.multiply(r3, pair, out=phi)  # zero between padded centres
+    else:
+        np.multiply(r3, r2 if p == 5 else r2 * r2, out=phi)
+        phi *= pair
     out[:, :K, K:] = P0[..., :m]
     out[:, K:, :K] = P0[..., :m].transpose(0, 2, 1)
     out[:, K:, K:] = 0.0
@@ -279,10 +304,9 @@ def _fit_chunk(out: _KernelFits, lo: int, hi: int, X: np.ndarray, Y: np.ndarray,
     """
     K, d = X.shape[1], Y.shape[2]
     Xc, vc = X[lo:hi], valid[lo:hi]
-    dx = Xc[:, :, None, 0] - Xc[:, None, :, 0]
-    dy = Xc[:, :, None, 1] - Xc[:, None, :, 1]
-    r2 = dx * dx + dy * dy  # (b, K, K)
-    r3 = r2 * np.sqrt(r2)
+    r2 = _squared_distances(Xc, Xc)  # (b, K, K)
+    r3 = np.sqrt(r2)
+    r3 *= r2
     pair = vc[:, :, None] & vc[:, None, :]
     P0 = _poly3(Xc[..., 0], Xc[..., 1]) * vc[..., None]
     B = np.zeros((hi - lo, K + _NPOLY, d + nloo))

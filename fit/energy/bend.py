@@ -18,7 +18,7 @@ from trispline.spline.util.parallel import Workers
 
 from .. import boundary
 from .arrays import Array, array_module
-from .local import blended_targets
+from .local import shared_targets
 from .quadrature import PAIRS, pair_hessian_rows, pair_moments
 
 if TYPE_CHECKING:
@@ -69,7 +69,7 @@ def setup(ctx: TermContext) -> dict[str, np.ndarray]:
     ``target``, the nets the thin plate is measured from (:func:`trispline.fit.boundary.bend_reference`)."""
     D, sqw = pair_hessian_rows()
     return dict(D=D, sqw=sqw, W=bend_weights(ctx.bary_gradients, ctx.areas, ctx.weights.bend),
-                target=boundary.bend_reference(ctx, blended_targets))
+                target=boundary.bend_reference(ctx, shared_targets(ctx)))
 
 
 def residual(ctrl: Array, frames: Array, a: dict) -> Array:

@@ -9,6 +9,7 @@ out: the interpolation and the ``tilt`` term fix them.
 """
 from __future__ import annotations
 
+import weakref
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
@@ -36,28 +37,64 @@ MASK[STAR[STAR >= 0]] = False
 MASK.setflags(write=False)
 
 
-def blended_targets(uv: np.ndarray, faces: np.ndarray, evaluate_fit: Callable, *, power: float = 2.0,
-                    report: Report | None = None) -> np.ndarray:
+def blended_targets(uv: np.ndarray, faces: np.ndarray, evaluate_fit: Callable, *,
+                    power: float | tuple[float, ...] = 2.0, report: Report | None = None
+                    ) -> np.ndarray | tuple[np.ndarray, ...]:
     """Per-patch target nets ``(F, 21, d)`` from the three vertices' local fits.
 
     ``evaluate_fit(vertex_ids (F,), points (F, 21, 2), report) -> (F, 21, d)`` evaluates the
     local fit of ``vertex_ids[f]`` at the 21 domain points of patch ``f`` (the grouped form of
     :meth:`trispline.fit.targets.LocalRBFFit.evaluate`); ``uv (nv, 2)``, ``faces (F, 3)``;
-    ``report``: progress (:mod:`trispline.fit.progress`).
+    ``report``: progress (:mod:`trispline.fit.progress`). A tuple of blend powers gives a tuple
+    of nets, one per power, from one evaluation of the fits (the costly part).
     """
+    powers = power if isinstance(power, tuple) else (power,)
     faces = np.asarray(faces, np.int64)
     grid = EXPONENTS / DEGREE  # the control points' domain points, barycentric
     pts = np.einsum("gk,fkc->fgc", grid, uv[faces])  # (F, 21, 2)
     Binv = np.linalg.inv(basis(grid))  # (21, 21) values at the domain points -> control points
-    e = EXPONENTS.astype(float) ** power
-    beta = e / e.sum(1, keepdims=True)  # (21, 3)
-    out = None
+    betas = []
+    for p in powers:
+        e = EXPONENTS.astype(float) ** p
+        betas.append(e / e.sum(1, keepdims=True))  # (21, 3)
+    out: list = [None] * len(powers)
     for k in range(3):
         vals = evaluate_fit(faces[:, k], pts, span(report, k / 3, (k + 1) / 3))
         net = np.einsum("ij,fjd->fid", Binv, vals, optimize=True)  # one GEMM
-        term = beta[None, :, k, None] * net
-        out = term if out is None else out + term
-    return out
+        for i, beta in enumerate(betas):
+            term = beta[None, :, k, None] * net
+            out[i] = term if out[i] is None else out[i] + term
+    return tuple(out) if isinstance(power, tuple) else out[0]
+
+
+#: [weakref to a context, a blend power, its targets]: the local term's nets, made with the bend's
+#: reference (:func:`shared_targets`) and taken by the local term's setup.
+_kept: list = [None, None, None]
+
+
+def shared_targets(ctx: TermContext) -> Callable:
+    """:func:`blended_targets` for ``ctx``'s patches (the bend reference's argument of
+    :func:`trispline.fit.boundary.bend_reference`) that also blends the local term's targets from
+    the same evaluations of the fits and keeps them for :func:`setup`: the fits are evaluated
+    once per context instead of twice (0.6 s of a 50k-face fit)."""
+    def targets(uv: np.ndarray, faces: np.ndarray, evaluate_fit: Callable, *, power: float = 2.0,
+                report: Report | None = None) -> np.ndarray:
+        own = ctx.weights.blend_power
+        if power == own or ctx.weights.local <= 0:
+            return blended_targets(uv, faces, evaluate_fit, power=power, report=report)
+        nets = blended_targets(uv, faces, evaluate_fit, power=(power, own), report=report or ctx.report)
+        _kept[:] = [weakref.ref(ctx), own, nets[1]]
+        return nets[0]
+    return targets
+
+
+def _targets(ctx: TermContext) -> np.ndarray:
+    """``(n, 21, d)`` the local term's targets: kept from the bend's reference, or made now."""
+    ref, power, kept = _kept
+    _kept[:] = [None, None, None]
+    if ref is not None and ref() is ctx and power == ctx.weights.blend_power:
+        return kept
+    return blended_targets(ctx.uv, ctx.faces, ctx.fit.evaluate, power=ctx.weights.blend_power, report=ctx.report)
 
 
 def setup(ctx: TermContext) -> dict[str, np.ndarray]:
@@ -66,7 +103,7 @@ def setup(ctx: TermContext) -> dict[str, np.ndarray]:
     n = ctx.faces.shape[0]
     if w.local <= 0:
         return dict(index=np.zeros(0, np.int64), target=np.zeros((0, 3)), scale=np.zeros(0))
-    target = blended_targets(ctx.uv, ctx.faces, ctx.fit.evaluate, power=w.blend_power, report=ctx.report)
+    target = _targets(ctx)
     face, slot = np.nonzero(np.broadcast_to(MASK, (n, NCTRL)))
     return dict(index=face * NCTRL + slot, target=target[face, slot],
                 scale=np.sqrt(w.local / ctx.areas[face]) * local_trust(ctx)[face])  # fit.agreement
