@@ -35,7 +35,7 @@ from .energy.data import DataPoints, as_data_points
 from .errors import FitError
 from .gauss_newton import QuadraticStep, iterate
 from .progress import stage_reporter
-from .solve import SparseCholesky, check_memory, estimate_factor_bytes, release_free_heap, require_x64
+from .solve import PatternAnalysis, check_memory, estimate_factor_bytes, release_free_heap, require_x64
 from .stages import ASSEMBLE, BUILD, FACTOR, FINISH, PARAMETERIZE, SOLVE
 from .weights import FitWeights
 
@@ -165,12 +165,13 @@ def fit_surface(
     size = float(np.ptp(V, axis=0).max()) or 1.0
     if dp is not None:
         dp = DataPoints(dp.face, dp.bary, (dp.xyz - centre) / size)
-    prob = en.setup_problem((V - centre) / size, space, weights, dp, report=stage_reporter(progress, ASSEMBLE))
+    analysis = PatternAnalysis()  # the factor's analysis runs on the pattern while the terms are set up
+    prob = en.setup_problem((V - centre) / size, space, weights, dp, report=stage_reporter(progress, ASSEMBLE),
+                            on_pattern=analysis.start)
     clock(ASSEMBLE)
     release_free_heap()
     step = QuadraticStep(prob) if solver is None and not prob.nonlinear else None  # compiles meanwhile
-    factor = SparseCholesky(prob.H_upper, upper=True, max_bytes="available",
-                            report=stage_reporter(progress, FACTOR))
+    factor = analysis.factor(prob.H_upper, max_bytes="available", report=stage_reporter(progress, FACTOR))
     clock(FACTOR)
     if step is not None:
         x, energies, steps, ok = step.run(factor)

@@ -30,7 +30,7 @@ from trispline.spline.util.parallel import Workers, concat
 from ..progress import Report, map_reporting, silent, span
 from ..solve import symmetric_from_upper
 
-__all__ = ["NormalParts", "normal_equations"]
+__all__ = ["NormalParts", "normal_equations", "upper_pattern"]
 
 #: Patches per chunk of the dense products (memory: chunk * 21 * 21 floats per block array).
 PATCH_CHUNK = 2048
@@ -110,6 +110,18 @@ def _upper_matrix(A: sp.csr_array, blocks: np.ndarray, frame_pos: np.ndarray, fr
     U.data, U.indices = U.data.copy(), U.indices.copy()
     (report or silent)(1.0)
     return U
+
+
+def upper_pattern(A: sp.csr_array) -> sp.csr_array:
+    """``(k, k)`` CSR pattern (values: shared-patch counts) of the upper triangle :func:`normal_equations`
+    returns, from ``A (21 n, k)`` alone: every two unknowns of one patch couple (the frame points'
+    diagonal lies inside). Known before any term is set up (:class:`~trispline.fit.solve.PatternAnalysis`)."""
+    n = A.shape[0] // NCTRL
+    B = sp.csr_array((np.ones(A.nnz, np.float32), A.indices.copy(), A.indptr[::NCTRL].copy()), shape=(n, A.shape[1]))
+    B.sum_duplicates()  # (n, k): the unknowns of each patch (in place: hence the copies, A stays as it is)
+    P = sp.triu(B.T @ B, format="csr")
+    P.sort_indices()
+    return P
 
 
 def normal_equations(A: sp.sparray | sp.spmatrix, c: np.ndarray, frame_pos: np.ndarray,

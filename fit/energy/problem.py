@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Callable
 
 import jax
 import jax.numpy as jnp
@@ -24,7 +25,7 @@ from .context import frame_ids, term_context
 from .data import DataPoints
 from ..progress import Report, span
 from ..solve import symmetric_from_upper
-from .normal import normal_equations
+from .normal import normal_equations, upper_pattern
 from .terms import MODULES, is_nonlinear, normal_parts, setup_terms, term_residuals
 
 __all__ = ["Problem", "setup_problem", "control_points", "residuals", "energies", "energy_units",
@@ -68,11 +69,14 @@ class Problem:
 
 
 def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
-                  data_points: DataPoints | None = None, report: Report | None = None) -> Problem:
+                  data_points: DataPoints | None = None, report: Report | None = None,
+                  on_pattern: Callable[[sp.csr_array], None] | None = None) -> Problem:
     """Targets, residual arrays and normal equations for data vertices ``V (nv, 3)``.
 
     ``report``: progress (:mod:`trispline.fit.progress`): the local fits and targets take
-    about 70% of the time, the normal equations most of the rest.
+    about 70% of the time, the normal equations most of the rest. ``on_pattern``: called
+    with the pattern of :attr:`Problem.H_upper` (:func:`~.normal.upper_pattern`) before the
+    terms are set up (the factorisation's analysis starts on it: :class:`~trispline.fit.solve.PatternAnalysis`).
     """
     is_fixed = np.zeros(space.n_free, bool)
     is_fixed[space.corner_free] = True
@@ -84,10 +88,12 @@ def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
     M_r.sort_indices()
     c0 = np.asarray(M[:, space.corner_free] @ V)
 
+    A = M_r[np.asarray(space.point_index).ravel()]  # (21 F, k) patch points per unknown
+    if on_pattern is not None:
+        on_pattern(upper_pattern(A))
     ctx = term_context(space, V, weights, data_points=data_points, report=span(report, 0.0, 0.7))
     terms = setup_terms(ctx)
     frame_pos = pos[frame_ids(space, ctx.frame_vertices)]
-    A = M_r[np.asarray(space.point_index).ravel()]  # (21 F, k) patch points per unknown
     parts = normal_parts(terms, space.tri.n_faces, frame_pos.size)
     span(report, 0.0, 0.8)(1.0)
     H_upper, rhs = normal_equations(A, c0[np.asarray(space.point_index).ravel()], frame_pos, parts, upper=True,

@@ -96,6 +96,41 @@ def test_per_patch_assembly_equals_the_triple_product(problem):
     np.testing.assert_allclose(prob.gradient(x), H_ref @ x - prob.rhs, rtol=0, atol=1e-12 * scale * np.abs(x).max())
 
 
+def test_pattern_from_the_patches_equals_the_assembled_one(problem):
+    """``upper_pattern`` (known before any term is set up) is the pattern ``setup_problem`` assembles,
+    and ``setup_problem`` hands it to ``on_pattern`` first."""
+    V, space, w = problem
+    seen = []
+    prob = en.setup_problem(V, space, w, on_pattern=seen.append)
+    (P,) = seen
+    U = sp.csr_array(prob.H_upper)
+    assert P.shape == U.shape and np.array_equal(P.indptr, U.indptr) and np.array_equal(P.indices, U.indices)
+
+
+@pytest.mark.parametrize("backend", ["pardiso", "cholespy"] if HAS_PARDISO else ["cholespy"])
+def test_factor_analysed_on_the_pattern_equals_a_plain_one(backend, monkeypatch):
+    """The factor whose analysis ran in the background on the pattern alone solves exactly as a
+    plain factor of the values (same ordering, same numbers); another pattern is refused by
+    ``set_values`` and analysed afresh by ``PatternAnalysis.factor``."""
+    monkeypatch.setenv("TRISPLINE_SOLVER", backend)
+    V, F = _scan(6000)
+    space = build_space(Triangulation(V[:, :2], F))
+    analysis = solve.PatternAnalysis()
+    prob = en.setup_problem(V, space, FitWeights(), on_pattern=analysis.start)
+    factor = analysis.factor(prob.H_upper, max_bytes="available")
+    b = np.random.default_rng(1).normal(size=(prob.rhs.shape[0], 3))
+    plain = SparseCholesky(prob.H_upper, upper=True)
+    np.testing.assert_array_equal(factor.solve(b), plain.solve(b))
+    other = sp.csr_array(prob.H_upper[:-1, :-1])
+    deferred = SparseCholesky(other, upper=True, defer=True)
+    with pytest.raises(ValueError, match="pattern"):
+        deferred.set_values(prob.H_upper)
+    fresh = solve.PatternAnalysis()
+    fresh.start(other)
+    refit = fresh.factor(prob.H_upper)  # not the analysed pattern: a plain factor of the values
+    np.testing.assert_array_equal(refit.solve(b), plain.solve(b))
+
+
 # ---------------------------------------------------------------- local fits
 def _lexsorted_neighbours(uv, faces, rings, max_neighbours):
     """The neighbour lists by one lexicographic sort of (vertex, distance): the plain definition."""
