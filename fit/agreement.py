@@ -33,7 +33,8 @@ import numpy as np
 if TYPE_CHECKING:
     from .energy.context import TermContext
 
-__all__ = ["AGREE_BAD", "AGREE_OK", "PROBES", "THIN_OK", "THIN_POWER", "disagreement", "local_trust"]
+__all__ = ["AGREE_BAD", "AGREE_OK", "PROBES", "SLIVER_BEND_MAX", "THIN_OK", "THIN_POWER", "disagreement", "local_trust",
+           "sliver_bend"]
 
 #: A patch's local fits agreeing to this fraction of its mean edge length are fully trusted.
 AGREE_OK = 0.1
@@ -43,6 +44,10 @@ AGREE_BAD = 0.5
 #: beetle's p99 10.9) count their disagreement times ``(thinness / THIN_OK)**THIN_POWER``.
 THIN_OK = 10.0
 THIN_POWER = 3
+#: The largest factor :func:`sliver_bend` puts on a sliver's bend weights (the pelvis's slivers of
+#: aspect 1e5 made the normal matrix indefinite in floating point; the camel head's and beetle's
+#: spiking slivers need 4 and 9).
+SLIVER_BEND_MAX = 10.0
 #: (4, 3) barycentric points where the three fits are compared: the centroid and the edge midpoints.
 PROBES = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5]])
 
@@ -94,3 +99,17 @@ def local_trust(ctx: TermContext) -> np.ndarray:
     d = disagreement(ctx) * thin ** THIN_POWER
     _cache[:] = [weakref.ref(ctx), _fade(d)]
     return _cache[1]
+
+
+def sliver_bend(ctx: TermContext) -> np.ndarray:
+    """``(n,)`` in [1, :data:`SLIVER_BEND_MAX`]: the factor on each patch's bend weights (its thin
+    plate counts its square), the uv :func:`_thinness` over :data:`THIN_OK` on thinner patches; 1
+    without local fits (the approximation's context).
+
+    The thin plate is an integral over the patch's uv area, so a sliver's bend is cheap however
+    sharp: where the guard above takes a sliver's local targets away, nothing else holds it (camel
+    head: a sliver of aspect 100 at 3,200x the data's largest |H|; with this factor 8x).
+    """
+    if ctx.fit is None or not len(ctx.faces):
+        return np.ones(len(ctx.faces))
+    return np.clip(_thinness(ctx.uv[ctx.faces]) / THIN_OK, 1.0, SLIVER_BEND_MAX)

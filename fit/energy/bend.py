@@ -17,6 +17,7 @@ from trispline.spline.index import NCTRL
 from trispline.spline.util.parallel import Workers
 
 from .. import boundary
+from ..agreement import sliver_bend
 from .arrays import Array, array_module
 from .local import shared_targets
 from .quadrature import PAIRS, pair_hessian_rows, pair_moments
@@ -68,7 +69,8 @@ def setup(ctx: TermContext) -> dict[str, np.ndarray]:
     """``D (Q, 6, 21)``, ``sqw (Q,)`` (the 10-row quadrature tables), ``W (n, 6, 3)`` of the patches and
     ``target``, the nets the thin plate is measured from (:func:`trispline.fit.boundary.bend_reference`)."""
     D, sqw = pair_hessian_rows()
-    return dict(D=D, sqw=sqw, W=bend_weights(ctx.bary_gradients, ctx.areas, ctx.weights.bend),
+    return dict(D=D, sqw=sqw, W=bend_weights(ctx.bary_gradients, ctx.areas, ctx.weights.bend)
+                * sliver_bend(ctx)[:, None, None],  # fit.agreement: a sliver's thin plate counts more
                 target=boundary.bend_reference(ctx, shared_targets(ctx)))
 
 
