@@ -112,15 +112,19 @@ def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray
     usable[dom.vertices] = False
     if exclude is not None:
         usable[exclude] = False
-    ids = np.flatnonzero(usable)
+    adj = dom.triangulation.face_adjacency
+    near = worst > 0
+    reach = adj[near]
+    near[reach[reach >= 0]] = True  # the faces over the tolerance and their neighbours
+    ids = np.flatnonzero(usable & near[face])
     corner, chord, _ = separation(dom, dom.scan_uv[ids])
     ids = ids[(corner >= MIN_SEPARATION) | (chord < MIN_SEPARATION) | on_loop[ids]]  # what insert would skip: not
     has = np.zeros(dom.stats.n_faces, bool)
     has[face[ids]] = True
     orphan = np.flatnonzero((worst > 0) & ~has)  # over the tolerance, nothing to insert: its neighbours instead
-    adj = dom.triangulation.face_adjacency[orphan]
-    ok = adj >= 0
-    np.maximum.at(worst, adj[ok], np.broadcast_to(worst[orphan][:, None], adj.shape)[ok])
+    nbr = adj[orphan]
+    ok = nbr >= 0
+    np.maximum.at(worst, nbr[ok], np.broadcast_to(worst[orphan][:, None], nbr.shape)[ok])
     ids = ids[worst[face[ids]] > 0]
     if ids.size == 0 or limit <= 0:
         return np.empty(0, np.int64)

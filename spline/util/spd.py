@@ -8,18 +8,39 @@ unknowns, 2 cores): PARDISO 5.3 s, CHOLMOD 18 s, libigl's own ``igl.lscm`` 76 s.
 """
 from __future__ import annotations
 
+import functools
 import importlib.util
+import os
 
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["SPD_BACKENDS", "SPD_PARDISO_MIN", "solve_spd"]
+__all__ = ["SPD_BACKENDS", "SPD_PARDISO_MIN", "point_pypardiso_at_mkl", "solve_spd"]
 
 #: The backends of :func:`solve_spd`.
 SPD_BACKENDS = ("pardiso", "cholespy")
 #: Unknowns from which PARDISO is used when installed (below, its ~0.3 s start-up costs more
 #: than CHOLMOD's solve).
 SPD_PARDISO_MIN = 30_000
+
+
+@functools.lru_cache(maxsize=None)
+def point_pypardiso_at_mkl() -> None:
+    """Tell pypardiso where MKL's runtime library is (its documented ``PYPARDISO_MKL_RT``), once.
+
+    Where ``ctypes`` cannot find ``mkl_rt`` (a wheel install), pypardiso walks every folder under
+    ``sys.prefix`` for it each time a solver is made, its import included (0.35 s of a 100k-face
+    LSCM). The wheel puts it in ``sys.prefix/lib``. (``fit.solve`` has the same helper.)
+    """
+    if os.environ.get("PYPARDISO_MKL_RT"):
+        return
+    import ctypes.util
+    import glob
+    import sys
+
+    found = min(glob.glob(f"{sys.prefix}/lib/libmkl_rt*"), key=len, default=None) or ctypes.util.find_library("mkl_rt")
+    if found:
+        os.environ["PYPARDISO_MKL_RT"] = found
 
 
 def _backend(requested: str | None, n: int) -> str:
@@ -45,6 +66,7 @@ def solve_spd(A: sp.spmatrix, b: np.ndarray, *, backend: str | None = None) -> n
     U.sum_duplicates()
     U.sort_indices()
     if _backend(backend, n) == "pardiso":
+        point_pypardiso_at_mkl()  # before the import: importing pypardiso makes a solver
         import pypardiso
 
         solver = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite: the upper triangle
