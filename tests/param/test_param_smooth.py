@@ -159,3 +159,18 @@ def test_a_badly_sheared_repair_gives_way_to_the_harmonic_map():
     assert p.distortion["score"] < 1.2 and p.smoothing["moved_max"] > 0
     assert any("repaired with a harmonic map" in msg for msg in p.messages)
 
+
+
+def test_a_boundary_vertex_the_loop_fit_would_move_far_keeps_its_uv():
+    V, F, loops = _square(600, seed=2)
+    bnd = loops[0]
+    bottom = bnd[np.flatnonzero((V[bnd, 1] == 0.0) & (V[bnd, 0] > 0.3) & (V[bnd, 0] < 0.7))]
+    top = bnd[np.flatnonzero((V[bnd, 1] == 1.0) & (V[bnd, 0] > 0.3) & (V[bnd, 0] < 0.7))]
+    small, big = bottom[len(bottom) // 2], top[len(top) // 2]
+    h = np.median(np.linalg.norm(V[F[:, 0], :2] - V[F[:, 1], :2], axis=1))
+    uv = V[:, :2].copy()
+    uv[small, 1] -= 0.2 * smooth_module.BOUNDARY_MAX_MOVE * h  # a kink the loop fit irons out
+    uv[big, 1] += 10 * smooth_module.BOUNDARY_MAX_MOVE * h  # one that would reshape the outline
+    new, _ = smooth_uv(V, F, uv, loops)
+    assert abs(new[small, 1]) < 0.5 * abs(uv[small, 1])
+    np.testing.assert_array_equal(new[big], uv[big])
