@@ -13,7 +13,9 @@ interpolant on the same points (a height-field-only cubic, shown for scale); ``x
 the row's total over that build time. ``total/factor`` is the row's total (load to save)
 over its factorisation stage; ``peak MiB`` the process's peak resident memory; ``CPU s``
 the process's CPU seconds (user + system: what the row costs whatever the machine's load,
-the peer build excluded for the CLI row, included for in-process rows).
+the peer build excluded for the CLI row, included for in-process rows). ``analysis``: the wall
+seconds of the factorisation's analysis, which runs in the background beside ``assemble``
+(``fit.solve.PatternAnalysis``), ``wait`` how long the ``factor`` stage waited for it (in-process rows).
 
     python benchmarks/bench_fit_speed.py                         # 10k 50k 100k 200k, CLI 100k
     python benchmarks/bench_fit_speed.py --faces 500000 --cli 0 --no-real
@@ -101,7 +103,8 @@ def fit_row(path: Path) -> dict:
     t1 = time.perf_counter()
     res.surface.save(Path(tempfile.mkdtemp()) / "surface.npz")
     row = dict(faces=int(F.shape[0]), free=int(res.stats["n_solved"]), load=t_load, **res.timings,
-               save=time.perf_counter() - t1, steps=int(res.iterations), c1=float(res.c1_residual))
+               save=time.perf_counter() - t1, steps=int(res.iterations), c1=float(res.c1_residual),
+               analysis=float(res.stats["analysis_seconds"]), wait=float(res.stats["analysis_wait_seconds"]))
     row["total"] = sum(row[s] for s in STAGES)
     row["peer"] = clough_tocher_seconds(V)
     return row
@@ -127,7 +130,8 @@ def print_row(label: str, r: dict) -> None:
     print(f"{label:<14} {r['faces']:>7} {r.get('free', 0):>8} | "
           + " ".join(f"{r[s]:8.2f}" if s in r else f"{'':>8}" for s in STAGES)
           + f" | {r['total']:8.2f} {ratio:7.2f} {r.get('steps', ''):>3} {r.get('c1', float('nan')):8.1e}"
-          + f" {r['peak']:8.0f} {r['cpu']:7.1f} | {r['peer']:7.2f} {r['total'] / r['peer']:7.1f}")
+          + f" {r['peak']:8.0f} {r['cpu']:7.1f} | {r['peer']:7.2f} {r['total'] / r['peer']:7.1f}"
+          + (f" | {r['analysis']:8.2f} {r['wait']:6.2f}" if "analysis" in r else ""))
     sys.stdout.flush()
 
 
@@ -143,7 +147,7 @@ def main(argv=None) -> int:
         return 0
     hdr = (f"{'mesh':<14} {'faces':>7} {'unknowns':>8} | " + " ".join(f"{s[:8]:>8}" for s in STAGES)
            + f" | {'total s':>8} {'t/factor':>7} {'GN':>3} {'C1 rel':>8} {'peak MiB':>8} {'CPU s':>7}"
-           + f" | {'CT s':>7} {'x CT':>7}")
+           + f" | {'CT s':>7} {'x CT':>7} | {'analysis':>8} {'wait':>6}")
     print(f"load average at start {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")
     print(hdr)
     print("-" * len(hdr))

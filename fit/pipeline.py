@@ -62,7 +62,9 @@ class FitResult:
     parameterization : the Parameterization (None when ``uv`` was given)
     uv, faces : the domain, (nv, 2) and (F, 3)
     weights : FitWeights
-    stats : n_free, n_solved, H_nnz, continuity (the full report)
+    stats : n_free, n_solved, H_nnz, continuity (the full report), analysis_seconds (the factor's
+        analysis, run beside the assembly: :class:`~trispline.fit.solve.PatternAnalysis`) and
+        analysis_wait_seconds (how long the factor stage waited for it)
     """
 
     surface: SplineSurface
@@ -179,6 +181,7 @@ def fit_surface(
         x, energies, steps, ok = iterate(prob, factor, solver, max_steps)
     clock(SOLVE)
     result = _finish(V, space, prob, x, energies, centre, size, steps, ok, weights, parameterization)
+    result["stats"].update(analysis_seconds=factor.analysis_seconds, analysis_wait_seconds=analysis.wait_seconds)
     clock(FINISH)
     if throw and not ok:
         raise FitError(

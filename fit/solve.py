@@ -26,6 +26,7 @@ import functools
 import itertools
 import os
 import threading
+import time
 import weakref
 from typing import Any
 
@@ -209,6 +210,7 @@ class SparseCholesky:
         self.handle = next(_HANDLES)
         _FACTORS[self.handle] = self
         self.backend = _pick_backend(backend, self.n)
+        self.analysis_seconds = 0.0
         U = H if upper else sp.triu(H, format="csr")
         #: Estimated bytes of the numerical factorisation (PARDISO: its own analysis).
         self.estimate = estimate_factor_bytes(self.n, U.nnz)
@@ -275,7 +277,10 @@ class SparseCholesky:
         solver.libmkl.pardisoinit(solver.pt.ctypes.data_as(ctypes.c_void_p), ctypes.byref(ctypes.c_int32(2)),
                                   solver.iparm.ctypes.data_as(ctypes.c_void_p))
         solver.iparm[7] = 0
+        start = time.perf_counter()
         self._pardiso(11)
+        #: Wall seconds of PARDISO's analysis (0 for the other backends).
+        self.analysis_seconds = time.perf_counter() - start
         self.estimate = pardiso_factor_bytes(self._solver.iparm)
 
     def _factor_pardiso(self) -> None:
@@ -353,6 +358,7 @@ class PatternAnalysis:
         self._thread: threading.Thread | None = None
         self._factor: SparseCholesky | None = None
         self._error: BaseException | None = None
+        self.wait_seconds = 0.0
 
     def start(self, pattern: sp.spmatrix) -> None:
         """Start analysing the upper triangle ``pattern (k, k)`` (diagonal included; values unused)."""
@@ -369,7 +375,10 @@ class PatternAnalysis:
                report: Report | None = None) -> SparseCholesky:
         """The factor of the upper triangle ``H_upper`` (see :class:`SparseCholesky` for the arguments)."""
         if self._thread is not None:
+            start = time.perf_counter()
             self._thread.join()
+            #: Seconds :meth:`factor` waited for the analysis (the rest of it overlapped the assembly).
+            self.wait_seconds = time.perf_counter() - start
             fac, self._factor, self._thread = self._factor, None, None
             if self._error is not None:
                 raise self._error
