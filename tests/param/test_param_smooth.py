@@ -174,3 +174,21 @@ def test_a_boundary_vertex_the_loop_fit_would_move_far_keeps_its_uv():
     new, _ = smooth_uv(V, F, uv, loops)
     assert abs(new[small, 1]) < 0.5 * abs(uv[small, 1])
     np.testing.assert_array_equal(new[big], uv[big])
+
+
+def test_a_badly_sheared_repair_gives_way_to_slim_when_harmonic_fails(monkeypatch):
+    from trispline.fit.datasets.analytic import analytic_mesh
+
+    pp = importlib.import_module("trispline.param.parameterize")
+    real = pp.raw_map
+
+    def no_harmonic(vm, method, uv=None):
+        if method == "harmonic":
+            raise pp.MeshError("no harmonic map here", ["test"])
+        return real(vm, method, uv)
+
+    monkeypatch.setattr(pp, "raw_map", no_harmonic)
+    m = analytic_mesh("enneper", 800)
+    p = parameterize(m.V, m.F)
+    assert p.repaired == "slim" and p.distortion["flipped_before_repair"] == 1
+    assert p.distortion["score"] < 2.0 and p.smoothing["moved_max"] > 0
