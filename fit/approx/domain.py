@@ -48,11 +48,13 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from trispline.spline.checks import as_array, check_ids
 from trispline.spline.errors import InputError, TriangulationError
-from trispline.spline.topology import Triangulation
+from trispline.param import face_areas_3d
+from trispline.spline.topology import Triangulation, signed_areas
 
 from .analysis import SPIKE_LEVELS, ScanAnalysis, analyse_scan
 from .boundary import CORNER_ANGLE, thin_loop
@@ -71,6 +73,8 @@ ADAPT = 0.5
 GRADING = 3.0
 #: The target spacing stays at least this many scan spacings (finer, the snap to scan vertices spoils angles).
 MIN_SCAN_SPACINGS = 2.5
+#: Smoothing steps (half self, half the neighbours' mean, in logs) of the scan's local 3D/uv scale and spacing.
+LOCAL_SCALE_SMOOTHING = 3
 #: Minimum angle (degrees) asked of Triangle's quality mesh before the snap.
 QUALITY_ANGLE = 28.0
 #: Triangle's largest area per vertex spacing ``h``: this times the equilateral ``sqrt(3)/4 h^2``.
@@ -159,16 +163,18 @@ class CoarseDomain:
 
 
 class _Sizing:
-    """Target vertex spacing over the uv domain: density ``lam * w`` per 3D area, ``w`` from the curvature."""
+    """Target vertex spacing over the uv domain: density ``lam * w`` per 3D area, ``w`` from the curvature
+    (per cell), turned into uv by the scan's own 3D/uv scale at the nearest scan vertex (a cell of a map
+    with extreme area distortion, like camelhead's 8e4, holds regions of very different scales)."""
 
-    def __init__(self, a: ScanAnalysis, adapt: float) -> None:
+    def __init__(self, a: ScanAnalysis, adapt: float, local: "_LocalScale") -> None:
         k = a.curvature
         has = a.area > 0
         floor = max(float(np.median(k[has])) if has.any() else 0.0, 1.0 / max(a.diagonal, 1e-300))
         w = (k + floor) ** adapt
         wm = float(np.median(w[has])) if has.any() else 1.0
         self.w = np.clip(w, wm / GRADING**2, wm * GRADING**2)
-        self.w_median, self.a = wm, a
+        self.w_median, self.a, self.local = wm, a, local
 
     def lam_for_count(self, n: float) -> float:
         """Density scale giving about ``n`` vertices over the scan."""
@@ -184,8 +190,34 @@ class _Sizing:
 
     def spacing(self, lam: float, points: np.ndarray) -> np.ndarray:
         """Target uv spacing ``(m,)`` at uv ``points (m, 2)``, never below :data:`MIN_SCAN_SPACINGS` of the scan's."""
-        h = self.spacing3d(lam, points) / np.maximum(self.a.lookup(self.a.scale, points), 1e-300)
-        return np.maximum(h, MIN_SCAN_SPACINGS * self.a.lookup(self.a.scan_spacing, points))
+        scale, scan_spacing = self.local(points)
+        return np.maximum(self.spacing3d(lam, points) / scale, MIN_SCAN_SPACINGS * scan_spacing)
+
+
+class _LocalScale:
+    """The scan's 3D length per uv length and its own uv vertex spacing at its vertices (over each vertex's
+    fan, geometric means over the neighbours a few times), looked up at the nearest scan vertex."""
+
+    def __init__(self, V: np.ndarray, F: np.ndarray, uv: np.ndarray, tree: cKDTree) -> None:
+        n = uv.shape[0]
+        a3 = np.bincount(F.ravel(), np.repeat(face_areas_3d(V, F), 3), minlength=n)
+        auv = np.bincount(F.ravel(), np.repeat(np.abs(signed_areas(uv, F)), 3), minlength=n)
+        ok = (a3 > 0) & (auv > 0)
+        fields = np.log(np.column_stack([np.sqrt(np.where(ok, a3, 1.0) / np.where(ok, auv, 1.0)),
+                                         np.sqrt(np.where(ok, auv, 1.0) / 3.0)]))
+        fields[~ok] = np.median(fields[ok], axis=0) if ok.any() else 0.0
+        e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+        A = sp.csr_matrix((np.ones(2 * e.shape[0]), (e.ravel(), e[:, ::-1].ravel())), shape=(n, n))
+        deg = np.maximum(np.asarray(A.sum(1)).ravel(), 1.0)[:, None]
+        for _ in range(LOCAL_SCALE_SMOOTHING):
+            fields = 0.5 * fields + 0.5 * (A @ fields) / deg
+        self.scale, self.scan_spacing = np.exp(fields[:, 0]), np.exp(fields[:, 1])
+        self.tree = tree
+
+    def __call__(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(scale (m,), scan_spacing (m,))`` at uv ``points (m, 2)``."""
+        i = self.tree.query(np.asarray(points, np.float64))[1]
+        return self.scale[i], self.scan_spacing[i]
 
 
 def _thin_boundary(loops: tuple[np.ndarray, ...], uv: np.ndarray, sizing: _Sizing, lam: float,
@@ -194,7 +226,7 @@ def _thin_boundary(loops: tuple[np.ndarray, ...], uv: np.ndarray, sizing: _Sizin
     kept, corners = [], []
     for loop in loops:
         p = uv[loop]
-        k, c = thin_loop(loop, uv, sizing.a.smooth, sizing.spacing(lam, p), sizing.a.lookup(sizing.a.scale, p),
+        k, c = thin_loop(loop, uv, sizing.a.smooth, sizing.spacing(lam, p), sizing.local(p)[0],
                          sizing.a.roughness, corner_angle=corner_angle)
         kept.append(k)
         corners.append(c)
@@ -379,9 +411,9 @@ def coarse_domain(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, n_vertices: i
         raise InputError("the scan has no boundary loop; coarse domains are for open scans")
     per_vertex = n / n_vertices if n_vertices is not None else 1.0
     a = analyse_scan(V, F, uv, curvature_points=max(MIN_CURVATURE_POINTS, int(4 * per_vertex)))
-    sizing = _Sizing(a, adapt)
-    lam = sizing.lam_for_spacing(spacing) if spacing is not None else sizing.lam_for_count(n_vertices)
     index = _ScanIndex(uv, loops)
+    sizing = _Sizing(a, adapt, _LocalScale(a.smooth, F, uv, index.tree))  # denoised: a spike is no large face
+    lam = sizing.lam_for_spacing(spacing) if spacing is not None else sizing.lam_for_count(n_vertices)
     position = _loop_position(loops, n)
     boundary, interior, corners, lam = _choose(uv, loops, sizing, lam, n_vertices, corner_angle, index, position)
     allowed = ~index.on_boundary & ~a.spike

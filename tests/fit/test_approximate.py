@@ -267,20 +267,25 @@ def test_bend_weights_take_the_maps_area_distortion_out():
 
 
 def test_distorted_map_smooths_no_more_where_it_compresses(monkeypatch):
-    """A bumpy surface over a conformal map whose area ratio varies 400x: the fit where the map
-    compresses the surface is about as close as where it stretches it (without the bend weights: 2x worse)."""
+    """A bumpy surface over a conformal map whose area ratio varies 400x, one fixed coarse domain: with
+    the bend weights the fit where the map compresses the surface is closer than without (measured 0.74x;
+    where the map stretches it 1.3x, the total RMS within 4%: the smoothing moves to where the uv
+    energy undercounted it. On the real scans the weights are what make camelhead's tolerance reachable:
+    docs/approximate.md)."""
     st, F = grid_with_hole(6000, seed=3)
     V = np.column_stack([st, 0.1 * np.sin(4 * st[:, 0]) * np.cos(5 * st[:, 1])])
     from trispline.fit.approx.deviation import surface_deviation
 
-    def ratio() -> float:
-        res = approximate_surface(V, F, uv=conformal(st), n_vertices=200, loss="l2", weights=APPROX_WEIGHTS)
-        d = surface_deviation(res.surface, V).distance
-        rms = [float(np.sqrt(np.mean(d[m] ** 2))) for m in (st[:, 0] < -0.4, st[:, 0] > 0.4)]
-        return rms[0] / rms[1]  # s < 0: 3D length per uv length large (compressed)
+    dom = coarse_domain(V, F, conformal(st), n_vertices=100)
 
-    assert ratio() < 1.3  # measured 0.86
+    def rms() -> np.ndarray:
+        """RMS deviation where the map compresses (s < -0.4) and where it stretches (s > 0.4)."""
+        d = surface_deviation(fit_domain(dom, V, loss="l2", weights=APPROX_WEIGHTS).surface, V).distance
+        return np.array([np.sqrt(np.mean(d[m] ** 2)) for m in (st[:, 0] < -0.4, st[:, 0] > 0.4)])
+
+    weighted = rms()
     import trispline.fit.approx.fit as fit_module
 
     monkeypatch.setattr(fit_module, "bend_face_weights", lambda dom: np.ones(dom.stats.n_faces))
-    assert ratio() > 1.6  # measured 2.2: the test can fail
+    plain = rms()
+    assert weighted[0] < 0.85 * plain[0]
