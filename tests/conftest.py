@@ -7,7 +7,10 @@ from __future__ import annotations
 
 import os
 
+import jax
 from hypothesis import HealthCheck, settings
+
+jax.config.update("jax_enable_x64", True)  # as the CLI does: fits need float64 (X64Error otherwise)
 
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True,
                           suppress_health_check=[HealthCheck.too_slow])

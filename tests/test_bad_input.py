@@ -424,23 +424,31 @@ with AtomicOutputs() as out:
 """
 
 
-def _default_signals() -> None:
-    """A child's SIGINT as at a terminal: a runner that starts the suite in the background (a
-    non-interactive shell's ``cmd &``) passes SIGINT on ignored, and Python then never raises
-    KeyboardInterrupt — right for a background job, but not the case these tests are about."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+@pytest.fixture
+def interruptible():
+    """Children start with SIGINT and SIGTERM at their defaults, as at a terminal. A runner that
+    starts the suite in the background (a non-interactive shell's ``cmd &``) passes SIGINT on
+    ignored, and Python then never raises KeyboardInterrupt: right for a background job, not the
+    case these tests are about. A handler set here is reset to the default by ``exec`` (no
+    ``preexec_fn``: it can deadlock a child forked from a process with threads)."""
+    caught = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    for s in caught:
+        if caught[s] is signal.SIG_IGN:
+            signal.signal(s, signal.default_int_handler)
+    yield
+    for s, handler in caught.items():
+        signal.signal(s, handler)
 
 
 @pytest.mark.parametrize("sig, code", [
     (signal.SIGTERM, 128 + signal.SIGTERM),  # atomic's handler: Terminated, a SystemExit(143)
     (signal.SIGINT, -signal.SIGINT),  # KeyboardInterrupt; Python then dies by the signal itself
 ])
-def test_signal_during_a_write_leaves_nothing(tmp_path, sig, code):
+def test_signal_during_a_write_leaves_nothing(tmp_path, sig, code, interruptible):
     target = tmp_path / "out.npz"
     target.write_bytes(b"old")
     with subprocess.Popen([PY, "-c", _WRITER, str(target)], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                          text=True, preexec_fn=_default_signals) as p:
+                          text=True) as p:
         assert p.stdout.readline().strip() == "ready"
         assert any(".tmp" in q.name for q in tmp_path.iterdir())
         p.send_signal(sig)
@@ -450,14 +458,13 @@ def test_signal_during_a_write_leaves_nothing(tmp_path, sig, code):
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
-def test_signal_during_a_fit_leaves_nothing(tmp_path, sig):
+def test_signal_during_a_fit_leaves_nothing(tmp_path, sig, interruptible):
     """Mid-fit: SIGTERM ends it, SIGINT exits 130 with one line; a complete output or none, never a
     temporary (the signal may land in the write, whose renames run with signals held back)."""
     # signalled once the progress bar shows (so inside the command, whatever the machine's
     # speed: a fixed sleep landed in the imports under load, or after the end on a fast machine)
     with subprocess.Popen([PY, "-m", "trispline.fit", "fit", "--example", "--example-faces", "20000", "-o",
-                           str(tmp_path / "s.npz")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                          preexec_fn=_default_signals) as p:
+                           str(tmp_path / "s.npz")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as p:
         first = p.stderr.read(1)
         p.send_signal(sig)
         out, err = p.communicate(timeout=60)
