@@ -21,7 +21,8 @@ from .errors import MeshError
 from .parameterize import parameterize
 from .repair_mesh import repair_mesh
 from .tables import boundary_loop_count, fan_counts, undirected_edges, vertex_components
-from .validate import ValidatedMesh, as_mesh_arrays, repeated_vertex_faces, validate_mesh, zero_area_faces
+from .validate import (ValidatedMesh, as_mesh_arrays, folded_edges, repeated_vertex_faces, validate_mesh,
+                       zero_area_faces)
 
 
 def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False, repair: bool = False,
@@ -52,7 +53,8 @@ def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False, re
         ``vertices``, ``faces``, ``non_finite_vertices``, ``bounds`` (of the finite vertices),
         ``degenerate_faces`` (``repeated_vertex``, ``zero_area``), ``edges``, ``boundary_edges``,
         ``non_manifold_edges``, ``components``, ``euler_characteristic``, ``bowtie_vertices``
-        (when no face repeats a vertex), ``manifold``; for a manifold mesh ``boundary_loops`` and
+        (when no face repeats a vertex), ``manifold``, ``folded_edges`` and ``worst_fold_degrees``
+        (:func:`fold_report`; 0 and None with non-finite vertices); for a manifold mesh ``boundary_loops`` and
         ``closed``, and with one component ``holes`` and ``genus``; last ``validation``:
         ``accepted``, ``problems`` (the :class:`MeshError` kinds), ``message`` (the error's
         text, empty when accepted) and ``repairs`` (what validation changed); after it
@@ -88,10 +90,21 @@ def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False, re
         bow = int((fan_counts(F, he_edge, nv) > 1).sum())
         rep["bowtie_vertices"] = bow
     rep["manifold"] = bool(rep["non_manifold_edges"] == 0 and bow == 0 and not repeated.any())
+    rep.update(fold_report(V, F) if finite.all() else dict(folded_edges=0, worst_fold_degrees=None))
     if rep["manifold"]:
         _loop_counts(rep, edges, count, nv)
     rep["validation"] = _validation(V, F, keep_largest, repair, (param, uv), rep)
     return rep
+
+
+def fold_report(V: np.ndarray, F: np.ndarray) -> dict[str, Any]:
+    """``folded_edges``: the edges whose two faces' normals point apart (dihedral above 90 degrees,
+    :func:`~trispline.param.validate.folded_edges`), and ``worst_fold_degrees``: the largest angle
+    between such normals (None without folds). An interpolating surface spikes at a fold;
+    :func:`~trispline.param.repair_mesh` cuts the folded flaps off."""
+    _, cos = folded_edges(V, F)
+    worst = float(np.degrees(np.arccos(np.clip(cos.min(), -1.0, 1.0)))) if cos.size else None
+    return dict(folded_edges=int(cos.size), worst_fold_degrees=worst)
 
 
 def _loop_counts(rep: dict[str, Any], edges: np.ndarray, count: np.ndarray, nv: int) -> None:

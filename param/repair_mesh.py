@@ -10,8 +10,10 @@ area (:func:`~trispline.param.validate.zero_area_faces`) or the vertex set of an
 face are dropped; every edge keeps at most two faces (the first, and the first after it
 that runs the edge the other way, else the next one); then every vertex is split into one
 copy per fan of faces that the kept edges join, which separates bowtie vertices and cuts
-fins off along their non-manifold edge; last, only the largest connected component (by
-faces) is kept. Orientation is left to :func:`validate_mesh`, which repairs it.
+fins off along their non-manifold edge; then folded flaps are cut off (faces across an edge
+whose normals point apart: the side that disagrees with the faces around it goes) and the
+edges and vertices made non-manifold by the cut are split again; last, only the largest
+connected component (by faces) is kept. Orientation is left to :func:`validate_mesh`, which repairs it.
 """
 from __future__ import annotations
 
@@ -22,14 +24,16 @@ import numpy as np
 from trispline.spline.checks import check_ids
 
 from .errors import MeshError
-from .tables import corner_fans, undirected_edges, vertex_components
-from .validate import as_mesh_arrays, repeated_vertex_faces, zero_area_faces
+from .tables import corner_fans, orientation_classes, undirected_edges, vertex_components
+from .validate import as_mesh_arrays, folded_edges, repeated_vertex_faces, zero_area_faces
 
 __all__ = ["RepairedMesh", "repair_mesh"]
 
 #: Rounds of edge-cutting and vertex-splitting before giving up (one suffices unless a cut
 #: face reaches the kept ones again around a vertex).
 MAX_SPLIT_ROUNDS = 8
+#: Rounds of flap cutting (each removes at least one face of every fold left).
+MAX_FLAP_ROUNDS = 32
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,7 +50,7 @@ class RepairedMesh:
         Input face of each output face (the kept faces, in input order).
     changes : dict of str -> int
         ``non_finite_faces``, ``repeated_vertex_faces``, ``zero_area_faces``,
-        ``duplicate_faces``, ``non_manifold_edges``, ``split_vertices`` (input vertices that
+        ``duplicate_faces``, ``non_manifold_edges``, ``folded_flap_faces``, ``split_vertices`` (input vertices that
         became several), ``added_vertices``, ``dropped_components``, ``dropped_component_faces``,
         ``dropped_vertices`` (input vertices in no output face).
     messages : list of str
@@ -117,6 +121,60 @@ def _split_fans(F: np.ndarray, nv: int) -> tuple[np.ndarray, np.ndarray, int]:
     return inv.reshape(-1, 3).astype(np.int64), uniq // (3 * F.shape[0]), n_cut
 
 
+def _manifold(F: np.ndarray, source: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """``(F', source', n_cut)``: edges cut to two faces and vertices split per fan until none is left."""
+    cut = 0
+    for _ in range(MAX_SPLIT_ROUNDS):
+        F, src, n_cut = _split_fans(F, source.size)
+        source = source[src]
+        cut += n_cut
+        if n_cut == 0:
+            return F, source, cut
+    raise MeshError(f"repair could not resolve the non-manifold edges in {MAX_SPLIT_ROUNDS} rounds",
+                    ["non_manifold_edges"])
+
+
+def _agreement(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Cosine ``(nf,)`` between each face's normal and the area-weighted normal of the other faces
+    at its corners, the faces oriented alike first (per orientable component; an edge-manifold F)."""
+    nf = F.shape[0]
+    he, _, he_edge, _ = undirected_edges(F, V.shape[0])
+    lab = orientation_classes(F, he, he_edge)
+    flip = lab[:nf] > lab[nf:]  # one of the two classes of each orientable component
+    Fo = np.where(flip[:, None], F[:, [0, 2, 1]], F)
+    n = np.cross(V[Fo[:, 1]] - V[Fo[:, 0]], V[Fo[:, 2]] - V[Fo[:, 0]])  # (nf, 3), twice the area
+    vn = np.zeros_like(V)
+    for k in range(3):
+        np.add.at(vn, Fo[:, k], n)
+    ring = vn[Fo].sum(1) - 3 * n
+    norm = np.linalg.norm(n, axis=1) * np.linalg.norm(ring, axis=1)
+    return (n * ring).sum(1) / np.where(norm > 0, norm, 1.0)
+
+
+def _cut_flaps(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Indices ``(nf',)`` of the faces left when folded flaps are cut off an edge-manifold ``F``.
+
+    A fold (:func:`~trispline.param.validate.folded_edges`) joins two faces whose normals point
+    apart; the flap is the side that disagrees with the faces around it (:func:`_agreement`):
+    every face of a fold that disagrees (negative cosine) goes, else the one of the two that agrees
+    less; repeated until no fold is left. A mesh without folds keeps every face.
+    """
+    keep = np.arange(F.shape[0])
+    for _ in range(MAX_FLAP_ROUNDS):
+        pairs, _ = folded_edges(V, F[keep])
+        if not pairs.size:
+            break
+        agree = _agreement(V, F[keep])
+        bad = np.unique(pairs[agree[pairs] < 0])
+        if not bad.size:
+            lower = np.argmin(agree[pairs], axis=1)
+            bad = np.unique(pairs[np.arange(pairs.shape[0]), lower])
+        keep = np.delete(keep, bad)
+        if not keep.size:
+            break
+    return keep
+
+
 def _largest(F: np.ndarray, nv: int, changes: dict) -> np.ndarray:
     """Indices of the faces of the component with the most faces."""
     ncomp, vlab = vertex_components(F, nv)
@@ -135,6 +193,7 @@ _WORDS = {
     "zero_area_faces": "dropped {} zero-area faces",
     "duplicate_faces": "dropped {} duplicate faces (same three vertices as an earlier face)",
     "non_manifold_edges": "cut {} non-manifold edges down to two faces each",
+    "folded_flap_faces": "cut off {} faces of folded flaps (adjacent faces whose normals point apart)",
     "split_vertices": "split {} bowtie or non-manifold vertices into one copy per fan of faces ({} added)",
     "dropped_components": "dropped {} smaller connected components ({} faces)",
     "dropped_vertices": "{} input vertices are in no output face",
@@ -150,7 +209,7 @@ def _messages(changes: dict[str, int]) -> list[str]:
 
 
 def repair_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = True) -> RepairedMesh:
-    """Drop bad and duplicate faces, split bowtie and non-manifold vertices, keep the largest component.
+    """Drop bad and duplicate faces, split bowtie and non-manifold vertices, cut folded flaps, keep the largest component.
 
     Parameters
     ----------
@@ -179,18 +238,15 @@ def repair_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = True) -> R
     if faces.size == 0:
         raise MeshError(f"repair left no faces ({', '.join(f'{k} {v}' for k, v in changes.items() if v)})",
                         ["empty"])
-    Fw, source = F[faces], np.arange(nv)
-    cut = 0
-    for _ in range(MAX_SPLIT_ROUNDS):
-        Fw, src, n_cut = _split_fans(Fw, source.size)
-        source = source[src]
-        cut += n_cut
-        if n_cut == 0:
-            break
-    else:
-        raise MeshError(f"repair could not resolve the non-manifold edges in {MAX_SPLIT_ROUNDS} rounds",
-                        ["non_manifold_edges"])
-    changes["non_manifold_edges"] = cut
+    Fw, source, changes["non_manifold_edges"] = _manifold(F[faces], np.arange(nv))
+    flaps = _cut_flaps(V[source], Fw)
+    changes["folded_flap_faces"] = int(Fw.shape[0] - flaps.size)
+    if not flaps.size:
+        raise MeshError("repair left no faces (every face was on a folded flap)", ["empty"])
+    if flaps.size < Fw.shape[0]:
+        faces = faces[flaps]
+        Fw, source, cut = _manifold(Fw[flaps], source)
+        changes["non_manifold_edges"] += cut
     copies = np.bincount(source, minlength=nv)
     changes["split_vertices"] = int((copies > 1).sum())
     changes["added_vertices"] = int(source.size - (copies > 0).sum())

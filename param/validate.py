@@ -18,7 +18,7 @@ from trispline.spline.errors import InputError, first_few
 from trispline.spline.tolerances import MAX_DOMAIN_ASPECT, MIN_RELATIVE_AREA_3D
 
 from .errors import MeshError
-from .tables import boundary_loops, fan_counts, orientation_classes, undirected_edges, vertex_components
+from .tables import boundary_loops, edge_pairs, fan_counts, orientation_classes, undirected_edges, vertex_components
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,6 +93,24 @@ def zero_area_faces(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """Mask ``(nf,)`` of faces whose 3D area is below ``MIN_RELATIVE_AREA_3D`` times the mean."""
     area = face_areas_3d(V, F)
     return area <= MIN_RELATIVE_AREA_3D * max(area.mean(), np.finfo(float).tiny)
+
+
+def folded_edges(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The folds of a mesh: ``(pairs (n, 2) int64, cos (n,) float64)``, the two faces of every
+    edge with exactly two faces whose normals, taken in the orientation the edge induces on both
+    (so a mesh need not be consistently oriented), point apart: dihedral angle above 90 degrees,
+    ``cos`` the cosine of the angle between the normals (negative). Zero-area faces fold nothing."""
+    he, _, he_edge, count = undirected_edges(F, V.shape[0])
+    h0, h1 = edge_pairs(he_edge)
+    inner = count[he_edge[h0]] == 2
+    h0, h1 = h0[inner], h1[inner]
+    n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    length = np.linalg.norm(n, axis=1)
+    n = n / np.where(length > 0, length, 1.0)[:, None]
+    same = np.where(he[h0, 0] == he[h1, 1], 1.0, -1.0)  # -1: the faces run the edge the same way
+    cos = (n[h0 // 3] * n[h1 // 3]).sum(1) * same
+    fold = cos < 0
+    return np.column_stack([h0[fold] // 3, h1[fold] // 3]).astype(np.int64), cos[fold]
 
 
 def repeated_vertex_faces(F: np.ndarray) -> np.ndarray:

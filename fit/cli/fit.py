@@ -296,6 +296,8 @@ def _load_input(args: argparse.Namespace, ui: UI) -> _Input:
     vm = validate_mesh(V, F, keep_largest=args.keep_largest)
     for m in vm.messages:
         ui.warn(m)
+    if repair is None:
+        _warn_folds(ui, vm.V, vm.F)
     if vm.kept is not None:
         V, F = vm.V, vm.F
         kept = vm.kept if kept is None else kept[vm.kept]
@@ -346,6 +348,17 @@ def _parameterize(args: argparse.Namespace, ui: UI, mesh: _Input) -> tuple[Any, 
     _announce(ui, p)
     refuse_slivers(p.uv, p.faces)
     return p, time.perf_counter() - t0
+
+
+def _warn_folds(ui: UI, V: np.ndarray, F: np.ndarray) -> None:
+    """One line before the work when the scan folds over (an interpolating surface spikes there)."""
+    from trispline.param.inspect import fold_report
+
+    folds = fold_report(V, F)
+    if folds["folded_edges"]:
+        ui.warn(f"the mesh folds over at {folds['folded_edges']} edges (adjacent faces up to "
+                f"{folds['worst_fold_degrees']:.0f} degrees apart): the surface will spike there; use --repair "
+                "to cut folded flaps")
 
 
 def _warn_far_from_origin(ui: UI, V: np.ndarray) -> None:

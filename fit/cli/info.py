@@ -67,6 +67,9 @@ def _info_text(d: dict) -> str:
         f"bowtie vertices {d.get('bowtie_vertices', '?')}), degenerate faces: {deg['zero_area']} zero-area, "
         f"{deg['repeated_vertex']} with a repeated vertex; non-finite vertices {d['non_finite_vertices']}",
         f"  texture coordinates (vt): {'yes' if d.get('has_uv') else 'no'}",
+        f"  folded edges (adjacent faces more than 90 degrees apart) {d['folded_edges']}"
+        + (f", worst {d['worst_fold_degrees']:.0f} degrees (fit --repair cuts folded flaps)"
+           if d["folded_edges"] else ""),
     ]
     f = d["fit"]
     if f.get("mesh_repair", {}).get("messages"):

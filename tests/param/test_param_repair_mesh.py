@@ -42,7 +42,9 @@ def test_map_back_to_input_vertices():
     assert r.changes["dropped_components"] == 0
     rep = inspect_mesh(r.V, r.F)
     assert rep["manifold"] and rep["non_manifold_edges"] == 0 and rep["bowtie_vertices"] == 0
-    assert rep["components"] == 6
+    # seed 2's fin folds over (its two faces more than 90 degrees apart): both are cut off as a flap
+    assert r.changes["folded_flap_faces"] == 2
+    assert rep["components"] == 5
 
 
 def test_clean_mesh_is_unchanged():
@@ -84,3 +86,51 @@ def test_inspect_judges_the_repaired_mesh():
     assert rep["validation"]["accepted"] and rep["validation"]["mesh_repair"]["changes"]["duplicate_faces"] == 3
     assert rep["distortion"]["method"] == "lscm" and rep["distortion"]["warning"] is None
     assert list(rep)[-1] == "validation"
+
+
+def folded_grid(n: int, flaps: list[int], *, seed: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
+    """A bumpy ``n x n`` grid with single-face flaps glued to the bottom boundary edges ``flaps`` and
+    folded back over the surface (each flap's normal about opposite its neighbour's), and one
+    two-face flap on the top edge. Returns ``(V, F, nf_clean)``: the grid's faces come first."""
+    rng = np.random.default_rng(seed)
+    x, y = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
+    V = np.column_stack([x.ravel(), y.ravel(), 0.05 * np.sin(3 * x.ravel()) * np.cos(2 * y.ravel())])
+    i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1))
+    a = (j * n + i).ravel()
+    F = np.vstack([np.column_stack([a, a + 1, a + n + 1]), np.column_stack([a, a + n + 1, a + n])])
+    nf = F.shape[0]
+    extra_v, extra_f = [], []
+    for k in flaps:  # bottom edge (k, k + 1), the grid's face (k, k + 1, k + n + 1) above it
+        p = V[k + n] * [1, 1, 0] + [0.3 / n, 0.0, 0.01 + 0.01 * rng.random()]
+        extra_f.append([k + 1, k, V.shape[0] + len(extra_v)])
+        extra_v.append(p)
+    t = n * (n - 1) + n // 2  # top edge (t, t + 1): a flap of two faces folded down over the grid
+    q = V.shape[0] + len(extra_v)
+    extra_v += [V[t - n] + [0.0, 0.0, 0.01], V[t - n + 1] + [0.0, 0.0, 0.01]]
+    extra_f += [[t, t + 1, q], [q, t + 1, q + 1]]
+    return np.vstack([V, extra_v]), np.vstack([F, extra_f]).astype(np.int64), nf
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_folded_flaps_are_counted_and_cut(seed):
+    rng = np.random.default_rng(seed)
+    n = 12
+    flaps = sorted(rng.choice(np.arange(0, n - 1, 2), size=3, replace=False).tolist())
+    V, F, nf = folded_grid(n, flaps, seed=seed)
+    rep = inspect_mesh(V, F)
+    assert rep["folded_edges"] == len(flaps) + 1  # one per flap: its edge on the grid
+    assert rep["worst_fold_degrees"] > 150
+    r = repair_mesh(V, F)
+    # the flaps go, every grid face stays (in order), the vertex map is right
+    np.testing.assert_array_equal(r.source_face_index, np.arange(nf))
+    np.testing.assert_array_equal(r.source_vertex_index, np.arange(n * n))
+    assert r.changes["folded_flap_faces"] + r.changes["dropped_component_faces"] == len(flaps) + 2
+    assert any("folded flaps" in m for m in r.messages)
+    assert inspect_mesh(r.V, r.F)["folded_edges"] == 0
+
+
+def test_clean_meshes_lose_no_face_to_the_fold_cut():
+    for V, F in (lift(*random_delaunay(300, holes=2, seed=3)), bumpy_disk(500, seed=4)):
+        assert inspect_mesh(V, F)["folded_edges"] == 0
+        r = repair_mesh(V, F)
+        assert r.changes["folded_flap_faces"] == 0 and not r.changed
