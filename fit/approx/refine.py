@@ -117,6 +117,8 @@ def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray
     reach = adj[near]
     near[reach[reach >= 0]] = True  # the faces over the tolerance and their neighbours
     ids = np.flatnonzero(usable & near[face])
+    if ids.size == 0 or limit <= 0:
+        return np.empty(0, np.int64)
     corner, chord, _ = separation(dom, dom.scan_uv[ids])
     ids = ids[(corner >= MIN_SEPARATION) | (chord < MIN_SEPARATION) | on_loop[ids]]  # what insert would skip: not
     has = np.zeros(dom.stats.n_faces, bool)
