@@ -23,7 +23,7 @@ import optimistix as optx
 
 from trispline.spline.bernstein import basis
 from trispline.spline.polynomial import Polynomial, polynomial_control_net
-from trispline.spline.propagation import SplineSpace, build_space
+from trispline.spline.propagation import SplineSpace, build_space, working_origin
 from trispline.spline.surface import SplineSurface
 from trispline.spline.tolerances import APPROX_CG_RTOL, APPROX_CONVERGED_GRAD_RTOL, APPROX_GN_ATOL, APPROX_GN_RTOL
 
@@ -213,7 +213,7 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
         free[space.corner_free] = V[dom.vertices]
     k = prob.unknowns.size
     free[prob.unknowns] = x[:k] * size + centre
-    ctrl = space.control_points(free)
+    ctrl = space.control_points(free, about=working_origin(V))
     energies = prob.energies((ctrl - centre) / size, size)
     surface = SplineSurface(space.tri.uv, dom.faces, ctrl)  # the domain used: nearly singular vertices snapped
     return CoarseFit(surface=surface, free=free, space=space, energies=energies, iterations=steps, converged=ok,
