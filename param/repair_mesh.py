@@ -24,7 +24,7 @@ import numpy as np
 from trispline.spline.checks import check_ids
 
 from .errors import MeshError
-from .tables import corner_fans, orientation_classes, undirected_edges, vertex_components
+from .tables import corner_fans, edge_pairs, orientation_classes, undirected_edges, vertex_components
 from .validate import as_mesh_arrays, folded_edges, repeated_vertex_faces, zero_area_faces
 
 __all__ = ["RepairedMesh", "repair_mesh"]
@@ -50,7 +50,7 @@ class RepairedMesh:
         Input face of each output face (the kept faces, in input order).
     changes : dict of str -> int
         ``non_finite_faces``, ``repeated_vertex_faces``, ``zero_area_faces``,
-        ``duplicate_faces``, ``non_manifold_edges``, ``folded_flap_faces``, ``split_vertices`` (input vertices that
+        ``duplicate_faces``, ``non_manifold_edges``, ``folded_flap_faces``, ``pinched_fan_faces``, ``split_vertices`` (input vertices that
         became several), ``added_vertices``, ``dropped_components``, ``dropped_component_faces``,
         ``dropped_vertices`` (input vertices in no output face).
     messages : list of str
@@ -134,14 +134,19 @@ def _manifold(F: np.ndarray, source: np.ndarray) -> tuple[np.ndarray, np.ndarray
                     ["non_manifold_edges"])
 
 
+def _oriented(F: np.ndarray, nv: int) -> np.ndarray:
+    """``F`` with the rows of each orientable component of an edge-manifold mesh oriented alike."""
+    nf = F.shape[0]
+    he, _, he_edge, _ = undirected_edges(F, nv)
+    lab = orientation_classes(F, he, he_edge)
+    flip = lab[:nf] > lab[nf:]  # one of the two classes of each orientable component
+    return np.where(flip[:, None], F[:, [0, 2, 1]], F)
+
+
 def _agreement(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """Cosine ``(nf,)`` between each face's normal and the area-weighted normal of the other faces
     at its corners, the faces oriented alike first (per orientable component; an edge-manifold F)."""
-    nf = F.shape[0]
-    he, _, he_edge, _ = undirected_edges(F, V.shape[0])
-    lab = orientation_classes(F, he, he_edge)
-    flip = lab[:nf] > lab[nf:]  # one of the two classes of each orientable component
-    Fo = np.where(flip[:, None], F[:, [0, 2, 1]], F)
+    Fo = _oriented(F, V.shape[0])
     n = np.cross(V[Fo[:, 1]] - V[Fo[:, 0]], V[Fo[:, 2]] - V[Fo[:, 0]])  # (nf, 3), twice the area
     vn = np.zeros_like(V)
     for k in range(3):
@@ -157,11 +162,16 @@ def _cut_flaps(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     A fold (:func:`~trispline.param.validate.folded_edges`) joins two faces whose normals point
     apart; the flap is the side that disagrees with the faces around it (:func:`_agreement`):
     every face of a fold that disagrees (negative cosine) goes, else the one of the two that agrees
-    less; repeated until no fold is left. A mesh without folds keeps every face.
+    less; repeated until no fold is left. A face that folds against all three of its neighbours is
+    no flap but a lone flipped face inside (a vertex pushed across the opposite edge): it is kept, as
+    are its folds (cutting it opens a hole, whose rim the fit bends more than the fold; measured on
+    camelhead.off in docs/fit.md). A mesh without folds keeps every face.
     """
     keep = np.arange(F.shape[0])
     for _ in range(MAX_FLAP_ROUNDS):
         pairs, _ = folded_edges(V, F[keep])
+        alone = np.bincount(pairs.ravel(), minlength=keep.size) == 3  # folds against all three neighbours
+        pairs = pairs[~alone[pairs].any(1)]
         if not pairs.size:
             break
         agree = _agreement(V, F[keep])
@@ -172,6 +182,26 @@ def _cut_flaps(V: np.ndarray, F: np.ndarray) -> np.ndarray:
         keep = np.delete(keep, bad)
         if not keep.size:
             break
+    return keep
+
+
+def _drop_pinched_fans(F: np.ndarray, nv: int) -> np.ndarray:
+    """Indices ``(nf',)`` of the faces left when, at every vertex where fans of an edge-manifold ``F``
+    meet (a bowtie the flap cut made), only its largest fan is kept; repeated until none is left.
+    A split would leave two vertices at one point, where an interpolating surface pinches."""
+    keep = np.arange(F.shape[0])
+    for _ in range(MAX_SPLIT_ROUNDS):
+        Fk = F[keep]
+        _, _, he_edge, _ = undirected_edges(Fk, nv)
+        lab = corner_fans(Fk, *edge_pairs(he_edge))
+        v = Fk.ravel()
+        size = np.bincount(lab)[lab]  # corners in each corner's fan
+        best = np.zeros(nv, np.int64)
+        np.maximum.at(best, v, size * (lab.size + 1) + (lab.size - lab))  # largest fan, lowest label on ties
+        minor = (best[v] != size * (lab.size + 1) + (lab.size - lab)).reshape(-1, 3).any(1)
+        if not minor.any():
+            break
+        keep = keep[~minor]
     return keep
 
 
@@ -194,6 +224,7 @@ _WORDS = {
     "duplicate_faces": "dropped {} duplicate faces (same three vertices as an earlier face)",
     "non_manifold_edges": "cut {} non-manifold edges down to two faces each",
     "folded_flap_faces": "cut off {} faces of folded flaps (adjacent faces whose normals point apart)",
+    "pinched_fan_faces": "dropped {} faces of the smaller fans where the flap cut left fans meeting at a vertex",
     "split_vertices": "split {} bowtie or non-manifold vertices into one copy per fan of faces ({} added)",
     "dropped_components": "dropped {} smaller connected components ({} faces)",
     "dropped_vertices": "{} input vertices are in no output face",
@@ -243,7 +274,10 @@ def repair_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = True) -> R
     changes["folded_flap_faces"] = int(Fw.shape[0] - flaps.size)
     if not flaps.size:
         raise MeshError("repair left no faces (every face was on a folded flap)", ["empty"])
+    changes["pinched_fan_faces"] = 0
     if flaps.size < Fw.shape[0]:
+        flaps = flaps[_drop_pinched_fans(Fw[flaps], source.size)]
+        changes["pinched_fan_faces"] = int(Fw.shape[0] - flaps.size - changes["folded_flap_faces"])
         faces = faces[flaps]
         Fw, source, cut = _manifold(Fw[flaps], source)
         changes["non_manifold_edges"] += cut

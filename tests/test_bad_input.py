@@ -685,3 +685,45 @@ def test_fit_api_wrong_dtypes(case):
            "NaN V": (np.where(np.arange(V.size).reshape(V.shape) == 4, np.nan, V), F)}[case]
     with pytest.raises(InputError, match=r"must (be integers|hold real numbers|be finite)|non-finite"):
         fit_surface(*bad)
+
+
+# =============================================================================== folds in the data (issue 18)
+def test_folds_are_reported_and_warned(tmp_path, capsys):
+    """info --json counts the folds; fit warns once, before the work, and --repair cuts them."""
+    from folded_meshes import folded_grid
+
+    path = tmp_path / "folded.obj"
+    trimesh.Trimesh(*folded_grid(10, [2, 6])[:2], process=False).export(path)
+    r = cli(capsys, "info", path, "--json")
+    d = json.loads(r.out)
+    assert d["folded_edges"] == 3 and d["worst_fold_degrees"] > 150
+    r = cli(capsys, "info", path, "--repair", "--json")
+    assert "folded flaps" in " ".join(json.loads(r.out)["fit"]["mesh_repair"]["messages"])
+    r = cli(capsys, "fit", path, "-o", tmp_path / "s.npz")
+    warned = [line for line in r.err.splitlines() if "folds over" in line]
+    assert r.rc == 0 and len(warned) == 1 and "3 edges" in warned[0] and "--repair" in warned[0]
+    r = cli(capsys, "fit", path, "-o", tmp_path / "s.npz", "--repair")
+    assert r.rc == 0 and "folds over" not in r.err and "folded flaps" in r.err
+
+
+def test_repaired_folds_fit_without_spikes():
+    """The folded grid spikes (|H| far above the clean grid's); repaired, it fits as the clean grid."""
+    jax = pytest.importorskip("jax")
+    jax.config.update("jax_enable_x64", True)
+    from folded_meshes import folded_grid
+
+    from trispline.fit.pipeline import fit_surface
+    from trispline.fit.render.geometry import surface_curvatures
+    from trispline.spline.index import lattice
+
+    def max_h(V, F):
+        s = fit_surface(V, F, param="auto").surface
+        bary = lattice(4) / 4
+        H = surface_curvatures(s, np.repeat(np.arange(s.n_faces), len(bary)), np.tile(bary, (s.n_faces, 1)))[0]
+        return float(np.nanmax(np.abs(H)))
+
+    V, F, nf = folded_grid(10, [2, 6])
+    clean = max_h(V[:100], F[:nf])
+    assert max_h(V, F) > 20 * clean
+    r = repair_mesh(V, F)
+    assert max_h(r.V, r.F) <= 1.01 * clean
