@@ -162,15 +162,19 @@ def _cut_flaps(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     A fold (:func:`~trispline.param.validate.folded_edges`) joins two faces whose normals point
     apart; the flap is the side that disagrees with the faces around it (:func:`_agreement`):
     every face of a fold that disagrees (negative cosine) goes, else the one of the two that agrees
-    less; repeated until no fold is left. A face that folds against all three of its neighbours is
-    no flap but a lone flipped face inside (a vertex pushed across the opposite edge): it is kept, as
-    are its folds (cutting it opens a hole, whose rim the fit bends more than the fold; measured on
-    camelhead.off in docs/fit.md). A mesh without folds keeps every face.
+    less; repeated until no fold is left. A face that folds against all three of its neighbours away
+    from the rim is no flap but a lone flipped face inside (a vertex pushed across the opposite
+    edge): it is kept, as are its folds (cutting it opens a hole, whose rim the fit bends more than
+    the fold; measured on camelhead.off in docs/fit.md). A mesh without folds keeps every face.
     """
     keep = np.arange(F.shape[0])
     for _ in range(MAX_FLAP_ROUNDS):
         pairs, _ = folded_edges(V, F[keep])
         alone = np.bincount(pairs.ravel(), minlength=keep.size) == 3  # folds against all three neighbours
+        _, edges, _, count = undirected_edges(F[keep], V.shape[0])
+        rim = np.zeros(V.shape[0], bool)
+        rim[edges[count == 1].ravel()] = True
+        alone &= ~rim[F[keep]].any(1)  # on the rim, cutting it opens no hole
         pairs = pairs[~alone[pairs].any(1)]
         if not pairs.size:
             break
