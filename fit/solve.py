@@ -22,7 +22,6 @@ and compiling it again (1-2 s per small fit).
 from __future__ import annotations
 
 import ctypes
-import functools
 import itertools
 import os
 import threading
@@ -37,6 +36,7 @@ import lineax as lx
 import numpy as np
 import scipy.sparse as sp
 from trispline.spline.util.memory import available_memory, format_bytes
+from trispline.spline.util.spd import SPD_PARDISO_MIN, point_pypardiso_at_mkl
 
 from .errors import FactorMemoryError, X64Error
 from .progress import Report, silent
@@ -62,15 +62,12 @@ def require_x64() -> None:
 BACKENDS = ("pardiso", "cholespy", "splu")
 
 
-#: Below this many unknowns cholespy is faster: PARDISO has ~0.3 s of start-up. Measured
-#: (factor + solve): 4.5k unknowns 0.04 vs 0.31 s, 11k 0.12 vs 0.35 s, 55k 1.07 vs 0.75 s,
-#: 165k 6.5 vs 1.9 s (cholespy vs PARDISO).
-PARDISO_MIN_UNKNOWNS = 30_000
+#: Below this many unknowns cholespy is faster (``spline.util.spd``, one home for both layers).
+PARDISO_MIN_UNKNOWNS = SPD_PARDISO_MIN
 
 
 def _pick_backend(requested: str | None, n: int) -> str:
     import importlib.util
-    import os
 
     want = requested or os.environ.get("TRISPLINE_SOLVER") or "auto"
     if want not in ("auto",) + BACKENDS:
@@ -121,25 +118,6 @@ def pardiso_factor_bytes(iparm: np.ndarray) -> int:
     kept) is already allocated by then.
     """
     return 1024 * int(iparm[16])
-
-
-@functools.lru_cache(maxsize=None)
-def _point_pypardiso_at_mkl() -> None:
-    """Tell pypardiso where MKL's runtime library is (its documented ``PYPARDISO_MKL_RT``), once.
-
-    Where ``ctypes`` cannot find ``mkl_rt`` (a wheel install), pypardiso walks every folder
-    under ``sys.prefix`` for it each time a solver is made, its import included: 1-2 s of a
-    fit. The wheel puts it in ``sys.prefix/lib``.
-    """
-    if os.environ.get("PYPARDISO_MKL_RT"):
-        return
-    import ctypes.util
-    import glob
-    import sys
-
-    found = min(glob.glob(f"{sys.prefix}/lib/libmkl_rt*"), key=len, default=None) or ctypes.util.find_library("mkl_rt")
-    if found:
-        os.environ["PYPARDISO_MKL_RT"] = found
 
 
 def release_free_heap() -> None:
@@ -260,7 +238,7 @@ class SparseCholesky:
 
     def _analyse_pardiso(self, U: sp.csr_matrix) -> None:
         """PARDISO phase 11 on the upper triangle ``U``; sets :attr:`estimate` from its report."""
-        _point_pypardiso_at_mkl()  # before the import: importing pypardiso makes a solver
+        point_pypardiso_at_mkl()  # before the import: importing pypardiso makes a solver
         import pypardiso
 
         self._upper = U
