@@ -110,7 +110,7 @@ def _add_fit_options(p: argparse.ArgumentParser, outputs: bool = True) -> None:
                         "(vertices are renumbered; the surface file records the input index; default: off)")
     p.add_argument("--repair", action="store_true",
                    help="repair the mesh first: split bowtie vertices, cut non-manifold edges, drop zero-area and "
-                        "duplicate faces, keep the largest component; says what changed, and the surface file's "
+                        "duplicate faces, cut folded flaps, keep the largest component; says what changed, and the surface file's "
                         "source_vertex_index maps its vertices to the input's (default: off)")
     p.add_argument("--max-steps", type=positive_int, default=50, metavar="N",
                    help="Gauss-Newton step limit; the default quadratic energy needs 1 (default 50)")

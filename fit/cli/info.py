@@ -28,7 +28,8 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--keep-largest", action="store_true", help="judge as fit --keep-largest would")
     p.add_argument("--repair", action="store_true",
                    help="judge the mesh repair makes of it (bowties split, non-manifold edges cut, zero-area "
-                        "and duplicate faces dropped, largest component kept), as fit --repair would")
+                        "and duplicate faces dropped, folded flaps cut, largest component kept), as fit "
+                        "--repair would")
     p.add_argument("--param", choices=METHODS, default=DEFAULT_METHOD,
                    help=f"parameterization whose distortion is reported (default {DEFAULT_METHOD}; uv: the "
                         "file's texture coordinates, else x and y)")
