@@ -25,7 +25,7 @@ from trispline.spline.checks import as_array
 from trispline.spline.continuity import continuity_report
 from trispline.spline.errors import InputError
 from trispline.spline.index import CORNER
-from trispline.spline.propagation import SplineSpace, build_space
+from trispline.spline.propagation import SplineSpace, build_space, working_origin
 from trispline.spline.surface import SplineSurface
 from trispline.spline.topology import Triangulation, signed_areas
 from trispline.spline.util.timer import StageTimer
@@ -191,19 +191,6 @@ def fit_surface(
     return FitResult(**result, timings=clock.timings)
 
 
-def _control_points(space: SplineSpace, free: np.ndarray, V: np.ndarray, centre: np.ndarray) -> np.ndarray:
-    """The net ``(F, 21, 3)`` of ``free``; for data far from the origin (UTM tiles, offsets of 1e6
-    and more: the centre further off than the data's extent) computed about ``centre`` and moved
-    back, with the corner points exactly the data vertices. The C1 conditions are affine, but
-    evaluated on coordinates of 1e6 they lose the digits of a 10 m tile; about the centre the net
-    is C1 up to the rounding of its stored coordinates (``trispline check``'s precision floor)."""
-    if not np.abs(centre).max() > np.ptp(V, axis=0).max():
-        return space.control_points(free)
-    ctrl = space.control_points(free - centre) + centre
-    ctrl[np.arange(space.tri.n_faces)[:, None], CORNER[None, :]] = V[space.tri.faces]
-    return ctrl
-
-
 def _finish(V: np.ndarray, space: SplineSpace, prob: en.Problem, x: np.ndarray, energies: dict[str, float],
             centre: np.ndarray, size: float, steps: int, ok: bool, weights: FitWeights, parameterization) -> dict:
     """The result's fields (all but the timings): control points, energies in data units, checks."""
@@ -211,7 +198,7 @@ def _finish(V: np.ndarray, space: SplineSpace, prob: en.Problem, x: np.ndarray, 
     free = np.zeros((space.n_free, 3))
     free[space.corner_free] = V
     free[prob.free_r] = x * size + centre
-    ctrl = _control_points(space, free, V, centre)
+    ctrl = space.control_points(free, about=working_origin(V))  # far-off data: C1 to its coordinates' rounding
     # the residuals are linear in the data's scale, except the angle term's
     units = en.energy_units(size)
     energies = {k: v * units[k] for k, v in energies.items()}
