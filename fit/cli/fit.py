@@ -357,7 +357,7 @@ def _warn_folds(ui: UI, V: np.ndarray, F: np.ndarray) -> None:
     folds = fold_report(V, F)
     if folds["folded_edges"]:
         ui.warn(f"the mesh folds over at {folds['folded_edges']} edges (adjacent faces up to "
-                f"{folds['worst_fold_degrees']:.0f} degrees apart): the surface will spike there; use --repair "
+                f"{folds['worst_fold_degrees']:.0f} degrees apart): the surface may spike there; use --repair "
                 "to cut folded flaps")
 
 
