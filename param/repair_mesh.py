@@ -11,8 +11,9 @@ face are dropped; every edge keeps at most two faces (the first, and the first a
 that runs the edge the other way, else the next one); then every vertex is split into one
 copy per fan of faces that the kept edges join, which separates bowtie vertices and cuts
 fins off along their non-manifold edge; then folded flaps are cut off (faces across an edge
-whose normals point apart: the side that disagrees with the faces around it goes) and the
-edges and vertices made non-manifold by the cut are split again; last, only the largest
+whose normals point apart: the side that disagrees with the faces around it goes), where the
+cut leaves fans meeting at a vertex only the largest stays, and what is still non-manifold is
+split again; last, only the largest
 connected component (by faces) is kept. Orientation is left to :func:`validate_mesh`, which repairs it.
 """
 from __future__ import annotations
