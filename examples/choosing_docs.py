@@ -75,7 +75,7 @@ def approx_picture(out: Path) -> None:
     V, F = synthetic_scan(4000, seed=0)
     fits = {"interpolated": fit_surface(V, F).surface,
             "approximated": approximate_surface(V, F, tolerance_rel=1e-2).surface}
-    side_by_side({f"{n}: {s.faces.shape[0]} patches, max curvature {max_curvature(s):.2g}": s
+    side_by_side({f"{n}: {s.faces.shape[0]} patches, max |H| {max_curvature(s):.2g}": s
                   for n, s in fits.items()}, "curvature", out / "approx_choice.png")
 
 
