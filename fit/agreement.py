@@ -25,16 +25,17 @@ and the ``tilt`` term alone (its local weight and its bend reference scaled by `
 """
 from __future__ import annotations
 
-import weakref
 from typing import TYPE_CHECKING
 
 import numpy as np
+from trispline.spline.topology import mean_edge_lengths
+
 
 if TYPE_CHECKING:
     from .energy.context import TermContext
 
 __all__ = ["AGREE_BAD", "AGREE_OK", "PROBES", "SLIVER_BEND_MAX", "THIN_OK", "THIN_POWER", "disagreement", "local_trust",
-           "sliver_bend"]
+           "log_fade", "sliver_bend"]
 
 #: A patch's local fits agreeing to this fraction of its mean edge length are fully trusted.
 AGREE_OK = 0.1
@@ -50,17 +51,6 @@ THIN_POWER = 3
 SLIVER_BEND_MAX = 10.0
 #: (4, 3) barycentric points where the three fits are compared: the centroid and the edge midpoints.
 PROBES = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5]])
-
-_cache: list = [None, None]  # [weakref to the last context, its trust]: the local and bend terms share it
-
-
-def _edge_length(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """``(nv,)`` each vertex's mean 3D edge length over the faces ``F``."""
-    e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-    length = np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1)
-    return np.bincount(e.ravel(), np.repeat(length, 2), minlength=len(V)) / np.maximum(
-        np.bincount(e.ravel(), minlength=len(V)), 1)
-
 
 def _thinness(P: np.ndarray) -> np.ndarray:
     """``(n,)`` >= 1: the longest edge of each triangle ``P (n, 3, k)`` over its height onto that edge,
@@ -80,25 +70,23 @@ def disagreement(ctx: TermContext) -> np.ndarray:
     pts = np.einsum("gk,fkc->fgc", PROBES, ctx.uv[faces])  # (n, 4, 2)
     N = np.stack([ctx.fit.evaluate(faces[:, k], pts) for k in range(3)], 1)  # (n, 3, 4, d)
     dev = np.linalg.norm(N - N.mean(1, keepdims=True), axis=-1).max(axis=(1, 2))
-    h = _edge_length(ctx.V, ctx.halo_faces)[faces].mean(1)
+    h = mean_edge_lengths(ctx.V, ctx.halo_faces)[faces].mean(1)
     return dev / np.maximum(h, np.finfo(float).tiny)
 
 
-def _fade(d: np.ndarray) -> np.ndarray:
-    """1 up to :data:`AGREE_OK`, 0 from :data:`AGREE_BAD` on, log-linear between."""
-    lo, hi = np.log(AGREE_OK), np.log(AGREE_BAD)
-    return np.clip((hi - np.log(np.maximum(d, np.finfo(float).tiny))) / (hi - lo), 0.0, 1.0)
+def log_fade(x: np.ndarray, ok: float, bad: float) -> np.ndarray:
+    """``(n,)`` trust in ``x (n,)``: 1 up to ``ok``, 0 from ``bad`` on, log-linear between."""
+    lo, hi = np.log(ok), np.log(bad)
+    return np.clip((hi - np.log(np.maximum(x, np.finfo(float).tiny))) / (hi - lo), 0.0, 1.0)
 
 
 def local_trust(ctx: TermContext) -> np.ndarray:
     """``(n,)`` in [0, 1]: the weight of each patch's local targets (see the module docstring);
     computed once per context."""
-    if _cache[0] is not None and _cache[0]() is ctx:
-        return _cache[1]
-    thin = np.maximum(_thinness(ctx.uv[ctx.faces]) / THIN_OK, 1.0)
-    d = disagreement(ctx) * thin ** THIN_POWER
-    _cache[:] = [weakref.ref(ctx), _fade(d)]
-    return _cache[1]
+    if "trust" not in ctx.memo:  # the local and bend terms share it
+        thin = np.maximum(_thinness(ctx.uv[ctx.faces]) / THIN_OK, 1.0)
+        ctx.memo["trust"] = log_fade(disagreement(ctx) * thin ** THIN_POWER, AGREE_OK, AGREE_BAD)
+    return ctx.memo["trust"]
 
 
 def sliver_bend(ctx: TermContext) -> np.ndarray:

@@ -31,8 +31,9 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
+from trispline.spline.topology import mean_edge_lengths
 
-from .agreement import local_trust
+from .agreement import local_trust, log_fade
 
 if TYPE_CHECKING:
     from .energy.context import TermContext
@@ -72,11 +73,5 @@ def trust(ctx: TermContext) -> np.ndarray:
     Where the data are noisy the local interpolants follow the noise; measured from them the
     bend would stop fairing it (on the shared scans: more patches of extreme curvature).
     """
-    F, V = ctx.halo_faces, ctx.V
-    e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-    length = np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1)
-    h = np.bincount(e.ravel(), np.repeat(length, 2), minlength=len(V)) / np.maximum(
-        np.bincount(e.ravel(), minlength=len(V)), 1)
-    r = ctx.fit.loo / np.maximum(h, np.finfo(float).tiny)
-    lo, hi = np.log(TRUSTED_LOO), np.log(UNTRUSTED_LOO)
-    return np.clip((hi - np.log(np.maximum(r, np.finfo(float).tiny))) / (hi - lo), 0.0, 1.0)
+    h = mean_edge_lengths(ctx.V, ctx.halo_faces)
+    return log_fade(ctx.fit.loo / np.maximum(h, np.finfo(float).tiny), TRUSTED_LOO, UNTRUSTED_LOO)

@@ -33,6 +33,15 @@ def halfedges(F: np.ndarray) -> np.ndarray:
     return np.stack([F[:, [1, 2, 0]], F[:, [2, 0, 1]]], axis=-1).reshape(-1, 2)
 
 
+def mean_edge_lengths(points: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """``(nv,)`` the mean length of the face edges at each vertex of ``points (nv, d)`` (an interior
+    edge counted once from each of its two faces); 0 at a vertex of no face."""
+    e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    length = np.linalg.norm(points[e[:, 0]] - points[e[:, 1]], axis=1)
+    return np.bincount(e.ravel(), np.repeat(length, 2), minlength=len(points)) / np.maximum(
+        np.bincount(e.ravel(), minlength=len(points)), 1)
+
+
 def undirected_edges(F: np.ndarray, nv: int, *, he: np.ndarray | None = None
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Half-edges and the undirected edges they lie on, for any ``F (nf, 3)`` with ids in ``[0, nv)``.

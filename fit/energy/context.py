@@ -8,7 +8,7 @@ the halo.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -39,6 +39,9 @@ class TermContext:
     data_points : DataPoints on the patches (face ids into the n patches), or None
     sample_weight : ``n_vertices / domain area`` of the whole triangulation (``1 / h^2`` of the data term)
     report : progress of the terms' setup (:mod:`trispline.fit.progress`; the local targets use it)
+    memo : values the terms derive from this context once and share (:func:`~trispline.fit.agreement.local_trust`,
+        the local term's targets blended with the bend's reference); each context has its own,
+        ``dataclasses.replace`` included
     """
 
     weights: FitWeights
@@ -55,6 +58,7 @@ class TermContext:
     data_points: DataPoints | None
     sample_weight: float
     report: Report = silent
+    memo: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
 
 def vertex_areas(faces: np.ndarray, areas: np.ndarray, n_vertices: int) -> np.ndarray:

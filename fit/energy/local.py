@@ -9,7 +9,6 @@ out: the interpolation and the ``tilt`` term fix them.
 """
 from __future__ import annotations
 
-import weakref
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
@@ -67,11 +66,6 @@ def blended_targets(uv: np.ndarray, faces: np.ndarray, evaluate_fit: Callable, *
     return tuple(out) if isinstance(power, tuple) else out[0]
 
 
-#: [weakref to a context, a blend power, its targets]: the local term's nets, made with the bend's
-#: reference (:func:`shared_targets`) and taken by the local term's setup.
-_kept: list = [None, None, None]
-
-
 def shared_targets(ctx: TermContext) -> Callable:
     """:func:`blended_targets` for ``ctx``'s patches (the bend reference's argument of
     :func:`trispline.fit.boundary.bend_reference`) that also blends the local term's targets from
@@ -83,16 +77,15 @@ def shared_targets(ctx: TermContext) -> Callable:
         if power == own or ctx.weights.local <= 0:
             return blended_targets(uv, faces, evaluate_fit, power=power, report=report)
         nets = blended_targets(uv, faces, evaluate_fit, power=(power, own), report=report or ctx.report)
-        _kept[:] = [weakref.ref(ctx), own, nets[1]]
+        ctx.memo["local_targets"] = nets[1]  # at the context's own blend power
         return nets[0]
     return targets
 
 
 def _targets(ctx: TermContext) -> np.ndarray:
     """``(n, 21, d)`` the local term's targets: kept from the bend's reference, or made now."""
-    ref, power, kept = _kept
-    _kept[:] = [None, None, None]
-    if ref is not None and ref() is ctx and power == ctx.weights.blend_power:
+    kept = ctx.memo.pop("local_targets", None)  # released once taken
+    if kept is not None:
         return kept
     return blended_targets(ctx.uv, ctx.faces, ctx.fit.evaluate, power=ctx.weights.blend_power, report=ctx.report)
 
