@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import igl
 import numpy as np
+import scipy.sparse as sp
 
 from trispline.spline.checks import as_array, check_ids
 
@@ -14,6 +15,16 @@ def circle_boundary(V: np.ndarray, loop: np.ndarray) -> np.ndarray:
                                    np.ascontiguousarray(loop, dtype=np.int32)),
         dtype=np.float64,
     )
+
+
+def lscm_hessian(V: np.ndarray, F: np.ndarray) -> sp.csr_matrix:
+    """libigl's LSCM energy ``Q (2 nv, 2 nv)`` over ``(u, v)`` stacked: ``-[L 0; 0 L] - 2 A``, ``L``
+    the cotangent Laplacian (``igl.cotmatrix``), ``A`` the vector area matrix of the boundary edges
+    (``igl.vector_area_matrix``: the map's signed area), as ``igl.lscm`` builds it."""
+    V = np.ascontiguousarray(V, dtype=np.float64)
+    F = np.ascontiguousarray(F, dtype=np.int64)
+    L = igl.cotmatrix(V, F)
+    return (-sp.block_diag([L, L]) - 2.0 * igl.vector_area_matrix(F)).tocsr()
 
 
 def harmonic(V: np.ndarray, F: np.ndarray, b: np.ndarray, bc: np.ndarray) -> np.ndarray:

@@ -10,7 +10,7 @@ import pytest
 from trispline.param import (
     UVTransform, distortion_report, parameterize, reverse_faces, slim_uv, user_domain, validate_mesh,
 )
-from trispline.param.methods import cotangent_laplacian, far_apart, lscm_uv, raw_map
+from trispline.param.methods import far_apart, lscm_uv, raw_map
 from trispline.param.testing import bumpy_disk, lift, nearly_closed
 from trispline.spline.errors import InputError
 from trispline.spline.surface import SplineSurface
@@ -54,13 +54,6 @@ def test_lscm_of_a_large_scan_is_libigls_map():
     ref, _ = igl.lscm(vm.V, vm.F, *_pins(vm))
     uv = raw_map(vm, "lscm")
     assert np.abs(uv - ref).max() <= 1e-9 * np.abs(ref).max()
-
-
-def test_cotangent_laplacian_is_libigls():
-    V, F = lift(*random_delaunay(200, holes=1, seed=3))
-    L = cotangent_laplacian(V, F)
-    assert abs(L - igl.cotmatrix(V, F)).max() <= 1e-12 * abs(L).max()
-    np.testing.assert_allclose(L @ np.ones(len(V)), 0.0, atol=1e-12)
 
 
 # ------------------------------------------------------------------------------ slim
