@@ -261,6 +261,17 @@ class _Grid:
         return smooth, float(np.median(bias[valid.reshape(-1)])) if valid.any() else 0.0
 
 
+def _studentized(r: np.ndarray, lev: np.ndarray) -> np.ndarray:
+    """``(k,)`` the studentized residuals ``|r| / sqrt(1 - h)`` of residuals ``r`` at leverages ``lev``."""
+    return np.abs(r) / np.sqrt(np.maximum(1.0 - lev, LEVERAGE_FLOOR))
+
+
+def _level(stud: np.ndarray, grid: _Grid, diagonal: float) -> np.ndarray:
+    """``(k,)`` the local level of studentized residuals ``stud`` over ``grid``'s cells: the noise where
+    there is noise, the quadric's model error where the data is exact (floored by the diagonal)."""
+    return np.maximum(MAD_TO_SIGMA * _cell_median(stud, grid.cell, grid.n)[grid.cell], LEVEL_FLOOR * diagonal)
+
+
 def _robust_fit(grid: _Grid, V: np.ndarray, diagonal: float) -> tuple[np.ndarray, ...]:
     """The robust quadric fits of ``grid``'s cells to ``V (k, 3)``: per vertex ``(r, nrm, loo, stud,
     level, w)``, the signed residual, the quadric's normal ``(k, 3)``, the leave-one-out and the
@@ -271,9 +282,8 @@ def _robust_fit(grid: _Grid, V: np.ndarray, diagonal: float) -> tuple[np.ndarray
         r, nrm, lev = _residuals(grid.m, V - ref[grid.cell], C, Ainv, grid.cell, w)
         # leave-one-out residuals r / (1 - h): a vertex the fit bends to (high leverage) is not hidden
         loo = r / np.maximum(1.0 - lev, LEVERAGE_FLOOR)
-        stud = np.abs(r) / np.sqrt(np.maximum(1.0 - lev, LEVERAGE_FLOOR))
-        # the local level: noise where there is noise, the quadric's model error where the data is exact
-        level = np.maximum(MAD_TO_SIGMA * _cell_median(stud, grid.cell, grid.n)[grid.cell], LEVEL_FLOOR * diagonal)
+        stud = _studentized(r, lev)
+        level = _level(stud, grid, diagonal)
         w = 1.0 / (1.0 + (loo / (CAUCHY_SCALE * level)) ** 2)
     return r, nrm, loo, stud, level, w
 
@@ -333,8 +343,8 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
             break
         points = int(min(points * (bias / target) ** (1.0 / 3.0), n // 16))
     rc, _, levc = _residuals(coarse.m, V - cref[coarse.cell], C, Ainv, coarse.cell, w)
-    studc = np.abs(rc) / np.sqrt(np.maximum(1.0 - levc, LEVERAGE_FLOOR))
-    levelc = np.maximum(MAD_TO_SIGMA * _cell_median(studc, coarse.cell, coarse.n)[coarse.cell], LEVEL_FLOOR * diagonal)
+    studc = _studentized(rc, levc)
+    levelc = _level(studc, coarse, diagonal)
     fc = _cell_index(uv[F].mean(1), coarse.origin, coarse.step, coarse.shape)
     a3 = face_areas_3d(V, F)
     s3, suv = np.bincount(fc, a3, minlength=coarse.n), np.bincount(fc, auv, minlength=coarse.n)

@@ -21,6 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
+from trispline.param import face_areas_3d
 from trispline.spline.bernstein import basis
 from trispline.spline.polynomial import Polynomial, polynomial_control_net
 from trispline.spline.propagation import SplineSpace, build_space, working_origin
@@ -116,8 +117,7 @@ def bend_face_weights(dom: CoarseDomain) -> np.ndarray:
     denoised positions, clipped to :data:`BEND_WEIGHT_RANGE` either way) makes the smoothing length
     uniform in 3D; 1 everywhere for an isometric map.
     """
-    P = dom.analysis.smooth[dom.vertices][dom.faces]  # (f, 3, 3)
-    a3 = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
+    a3 = face_areas_3d(dom.analysis.smooth[dom.vertices], dom.faces)
     auv = dom.triangulation.areas
     rho = float(a3.sum()) / max(float(auv.sum()), 1e-300)
     ratio = a3 / np.maximum(auv, 1e-300)
