@@ -296,9 +296,8 @@ def _load_input(args: argparse.Namespace, ui: UI) -> _Input:
     vm = validate_mesh(V, F, keep_largest=args.keep_largest)
     for m in vm.messages:
         ui.warn(m)
-    # an approximating fit need not pass the folds; the built-in example (3 folds of 102 degrees at
-    # 20k faces) is not the user's to repair
-    if repair is None and not approximate.requested(args) and not args.example:
+    # an approximating fit need not pass the folds
+    if repair is None and not approximate.requested(args):
         _warn_folds(ui, vm.V, vm.F)
     if vm.kept is not None:
         V, F = vm.V, vm.F
