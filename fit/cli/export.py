@@ -3,7 +3,7 @@
     trispline export SURFACE.npz -o OUT.obj|ply|stl|glb|json|npz|png|step|stp|iges|igs|3dm
                      [--resolution N] [--merge] [--control-net FILE [--net-lines]]
 
-A mesh export's size is estimated before anything is written (``--json`` reports
+A mesh or CAD export's size is estimated before anything is written (``--json`` reports
 ``estimated_bytes``); above :data:`~trispline.fit.io.export.LARGE_EXPORT_BYTES` a
 warning says so. The default ``--resolution`` follows the patch count
 (:func:`~trispline.fit.io.sizes.export_resolution`); one given is honoured.
@@ -30,7 +30,7 @@ def add_parser(sub: Any) -> None:
                        description="Write the surface exactly as B-spline faces (STEP AP214, IGES, 3dm; needs the "
                                    "extra trispline[cad]), the tessellated surface with analytic normals (watertight "
                                    "along patch boundaries), a surface file, a picture, and/or the control net. "
-                                   "A mesh's size is estimated first, with a warning above "
+                                   "A mesh's or CAD file's size is estimated first, with a warning above "
                                    f"{LARGE_EXPORT_BYTES / 1e6:g} MB.")
     p.add_argument("surface", metavar="SURFACE", help="surface file to export (.npz or .json)")
     p.add_argument("-o", "--output", metavar="OUT",
@@ -74,7 +74,7 @@ def cmd_export(args: argparse.Namespace, ui: UI) -> int:
     surface = load_surface(args.surface)
     data = dict(command="export", input=args.surface, output=None if out_path is None else str(out_path),
                 patches=surface.n_faces, resolution=args.resolution, resolution_auto=args.resolution is None)
-    data.update(_mesh_size(surface, out_path, args.resolution))
+    data.update(_mesh_size(surface, out_path, args.resolution, args.merge))
     names = (["tessellate and write"] if out_path else []) + (["control net"] if net_path else [])
     with ui.stages(names, "export") as bar, AtomicOutputs() as out:
         if out_path is not None:
@@ -85,20 +85,22 @@ def cmd_export(args: argparse.Namespace, ui: UI) -> int:
             bar.done()
         written = out.targets
     data["outputs"] = [str(p) for p in written]
-    if out_path is not None and out_path.suffix.lower() in CAD_FORMATS:
-        data.update(cad_faces=(2 if args.merge else 3) * surface.n_faces)
     ui.result(data, _text)
     return EXIT_OK
 
 
-def _mesh_size(surface: Any, out_path: Path | None, resolution: int | None) -> dict[str, Any]:
+def _mesh_size(surface: Any, out_path: Path | None, resolution: int | None, merge: bool) -> dict[str, Any]:
     """The resolution a mesh output gets (``resolution`` or the automatic one), its vertex and
-    triangle counts and its estimated size in bytes; nothing for other outputs."""
+    triangle counts and its estimated size in bytes; a CAD output's faces and estimated size;
+    nothing for other outputs."""
     from trispline.spline.tessellate import tessellation_counts
 
-    from ..io.formats import MESH_FORMATS
+    from ..io.formats import CAD_FORMATS, MESH_FORMATS
     from ..io.sizes import estimate_export_bytes, export_resolution
 
+    if out_path is not None and out_path.suffix.lower() in CAD_FORMATS:
+        return dict(cad_faces=(2 if merge else 3) * surface.n_faces,
+                    estimated_bytes=estimate_export_bytes(surface, out_path, merge=merge))
     if out_path is None or out_path.suffix.lower() not in MESH_FORMATS:
         return {}
     r = export_resolution(surface.n_faces) if resolution is None else resolution
@@ -112,7 +114,9 @@ def _text(d: dict) -> str:
     """The summary: each file written, a mesh with its size and resolution."""
     lines = []
     for p in d["outputs"]:
-        if "estimated_bytes" in d and p == d["output"]:
+        if "cad_faces" in d and p == d["output"]:
+            lines.append(f"wrote {p} ({d['cad_faces']:,} B-spline faces, about {d['estimated_bytes'] / 1e6:.3g} MB)")
+        elif "estimated_bytes" in d and p == d["output"]:
             how = "automatic" if d["resolution_auto"] else "set"
             lines.append(f"wrote {p} ({d['mesh_triangles']:,} triangles, resolution {d['resolution']} ({how}), "
                          f"about {d['estimated_bytes'] / 1e6:.3g} MB)")

@@ -20,7 +20,8 @@ written atomically (:mod:`trispline.spline.util.atomic`).
 Mesh exports have a sensible size by default: the resolution follows the patch
 count (:func:`.sizes.export_resolution`), and a file estimated
 (:func:`.sizes.estimate_export_bytes`) above :data:`LARGE_EXPORT_BYTES` is announced
-with a :class:`LargeExportWarning` before it is written.
+with a :class:`LargeExportWarning` before it is written. So is exact CAD of that size (an
+interpolating fit of a dense scan is one patch per triangle: about 21 kB each as STEP).
 """
 from __future__ import annotations
 
@@ -193,7 +194,8 @@ def export_surface(
     (seen along the surface's mean normal) unless ``image_options`` (``mode``,
     ``view``, ``size``, ``title``, ...) say otherwise;
     ``.step .stp .iges .igs .3dm``: the exact B-spline faces of :func:`.cad.export_cad`
-    (``merge`` joins two of a triangle's three faces; needs the extra ``trispline[cad]``).
+    (``merge`` joins two of a triangle's three faces; needs the extra ``trispline[cad]``),
+    announced like a large mesh.
     With ``outputs`` the file joins that group (committed by the caller), otherwise
     it is written atomically on its own.
     """
@@ -213,6 +215,11 @@ def export_surface(
     if suffix in CAD_FORMATS:
         from .cad import export_cad
 
+        size = estimate_export_bytes(surface, path, merge=merge)
+        if size > LARGE_EXPORT_BYTES:
+            warnings.warn(f"{Path(path).name} will be about {size / 1e6:.0f} MB ({surface.n_faces} patches as "
+                          f"{(2 if merge else 3) * surface.n_faces} B-spline faces); an approximating fit "
+                          "(fit --tolerance) gives a compact surface", LargeExportWarning, stacklevel=2)
         return export_cad(surface, path, merge=merge, outputs=outputs)
     return write_with(path, lambda tmp: _write_picture(surface, tmp, resolution, image_options), outputs)
 

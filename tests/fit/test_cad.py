@@ -298,6 +298,7 @@ def test_cli_export_step_reads_back(tmp_path, surface, diagonal, capsys):
         assert main(["export", str(src), "-o", str(out), "--json", *(["--merge"] if merge else [])]) == 0
         rep = json.loads(capsys.readouterr().out)
         assert rep["cad_faces"] == per_patch * surface.n_faces and rep["outputs"] == [str(out)]
+        assert rep["estimated_bytes"] == pytest.approx(out.stat().st_size, rel=0.1)
         _check_shell(cad.read_cad(out), surface, per_patch * surface.n_faces, diagonal)
 
 
@@ -316,3 +317,22 @@ def test_export_surface_dispatches_cad(tmp_path, surface):
 
     path = export_surface(surface, tmp_path / "s.igs")
     assert len(_all(cad.read_cad(path), TopAbs_FACE, Face)) == 3 * surface.n_faces
+
+
+@pytest.mark.parametrize("merge", [False, True], ids=["quads", "merged"])
+@pytest.mark.parametrize("suffix", [".step", ".iges", ".3dm"])
+def test_the_size_is_known_before_the_file_is_written(tmp_path, surface, suffix, merge):
+    from trispline.fit.io.sizes import estimate_export_bytes
+
+    path = cad.export_cad(surface, tmp_path / f"s{suffix}", merge=merge)
+    assert estimate_export_bytes(surface, path, merge=merge) == pytest.approx(path.stat().st_size, rel=0.1)
+
+
+def test_a_large_cad_export_is_announced_before_it_is_written(tmp_path, surface, monkeypatch):
+    from trispline.fit.errors import LargeExportWarning
+    from trispline.fit.io import export
+
+    monkeypatch.setattr(export, "LARGE_EXPORT_BYTES", 1000)
+    with pytest.warns(LargeExportWarning, match=rf"about \d+ MB \({surface.n_faces} patches as "
+                                                 rf"{3 * surface.n_faces} B-spline faces\).*fit --tolerance"):
+        export.export_surface(surface, tmp_path / "s.step")
