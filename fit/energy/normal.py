@@ -25,7 +25,7 @@ import scipy.sparse as sp
 
 from trispline.spline.index import NCTRL
 from trispline.spline.util.memory import index_dtype
-from trispline.spline.util.parallel import Workers, concat
+from trispline.spline.util.parallel import Workers
 
 from ..progress import Report, map_reporting, silent, span
 from ..solve import symmetric_from_upper
@@ -59,12 +59,22 @@ class NormalParts:
                    np.zeros(n_frames), np.zeros((n_frames, d)))
 
 
-def _patch_upper(A: sp.csr_array, blocks: np.ndarray, lo: int, hi: int, idx: type) -> tuple[np.ndarray, ...]:
-    """Upper-triangle entries ``(row, col, value)`` of ``sum_f A_f^T B_f A_f`` over patches ``lo:hi``.
+def _patch_unknowns(A: sp.csr_array) -> sp.csr_array:
+    """``(n, k)`` CSR incidence of the ``n`` patches and their unknowns (sorted columns, values: counts)
+    from ``A (21 n, k)`` with sorted indices; ``A`` stays as it is (its index arrays are copied)."""
+    n = A.shape[0] // NCTRL
+    B = sp.csr_array((np.ones(A.nnz, np.float32), A.indices.copy(), A.indptr[::NCTRL].copy()), shape=(n, A.shape[1]))
+    B.sum_duplicates()  # in place: hence the copies
+    return B
+
+
+def _patch_upper(A: sp.csr_array, blocks: np.ndarray, lo: int, hi: int, out: tuple[np.ndarray, ...],
+                 start: int) -> None:
+    """Writes the upper-triangle entries ``(row, col, value)`` of ``sum_f A_f^T B_f A_f`` over patches
+    ``lo:hi`` into ``out = (rows, cols, vals)`` from ``start`` on (the chunks' entries follow each other).
 
     ``A_f`` (rows ``21 f .. 21 f + 20`` of ``A``) is made dense over the patch's own sorted
     unknowns ``U_f``; since ``U_f`` is sorted, local ``i <= j`` is global ``row <= col``.
-    Row and column ids come as ``idx`` (int32 where they fit: half the memory to move).
     """
     m = hi - lo
     ptr = A.indptr[NCTRL * lo:NCTRL * hi + 1]
@@ -80,29 +90,48 @@ def _patch_upper(A: sp.csr_array, blocks: np.ndarray, lo: int, hi: int, idx: typ
     first = np.cumsum(n_unknowns) - n_unknowns
     local = np.cumsum(new) - 1 - first[patch]  # index of each entry's unknown in U_f
     width = int(n_unknowns.max()) if m else 0
-    U = np.zeros((m, width), idx)
+    U = np.zeros((m, width), out[0].dtype)
     U[patch[new], local[new]] = col[new]
     Ad = np.zeros((m, NCTRL, width))
     Ad[patch, slot, local] = val  # CSR rows hold no duplicate columns
     K = np.matmul(Ad.transpose(0, 2, 1), np.matmul(blocks[lo:hi], Ad))  # (m, u, u)
     iu, ju = np.triu_indices(width)
     keep = ju[None, :] < n_unknowns[:, None]  # (m, pairs): both unknowns exist (iu <= ju)
-    return U[:, iu][keep], U[:, ju][keep], K[:, iu, ju][keep]
+    stop = start + int(np.count_nonzero(keep))
+    np.compress(keep.ravel(), U[:, iu], out=out[0][start:stop])
+    np.compress(keep.ravel(), U[:, ju], out=out[1][start:stop])
+    np.compress(keep.ravel(), K[:, iu, ju], out=out[2][start:stop])
+
+
+def _patch_entries(A: sp.csr_array, blocks: np.ndarray, frame_pos: np.ndarray, frame_weight: np.ndarray,
+                   report: Report | None) -> tuple[np.ndarray, ...]:
+    """COO ``(rows, cols, vals)`` of the patches' upper-triangle entries, then the frames' diagonal.
+
+    The chunks write in place into arrays sized from the patches' unknowns (no pieces to
+    concatenate: 0.2 CPU s and 270 MB less at 100k faces).
+    """
+    n, k = blocks.shape[0], A.shape[1]
+    u = np.diff(_patch_unknowns(A).indptr)
+    offset = np.zeros(n + 1, np.int64)
+    np.cumsum(u * (u + 1) // 2, out=offset[1:])  # each patch's pairs i <= j of its unknowns
+    m, base = frame_pos.size, int(offset[-1])
+    idx = index_dtype(k)
+    out = (np.empty(base + m, idx), np.empty(base + m, idx), np.empty(base + m))
+    with Workers(n, parallel_min=2 * PATCH_CHUNK) as work:
+        map_reporting(work, lambda lo, hi: _patch_upper(A, blocks, lo, hi, out, int(offset[lo])), n, PATCH_CHUNK,
+                      report)
+    out[0][base:] = frame_pos
+    out[1][base:] = frame_pos
+    out[2][base:] = frame_weight
+    return out
 
 
 def _upper_matrix(A: sp.csr_array, blocks: np.ndarray, frame_pos: np.ndarray, frame_weight: np.ndarray,
                   report: Report | None = None) -> sp.csr_array:
     """``(k, k)`` CSR upper triangle (diagonal included) of ``A^T blkdiag(blocks) A + diag_frames``."""
-    n, k = blocks.shape[0], A.shape[1]
-    idx = index_dtype(k)
-    with Workers(n, parallel_min=2 * PATCH_CHUNK) as work:
-        parts = map_reporting(work, lambda lo, hi: _patch_upper(A, blocks, lo, hi, idx), n, PATCH_CHUNK,
-                              span(report, 0.0, 0.6))
-    frames = np.asarray(frame_pos).astype(idx)
-    rows = concat([p[0] for p in parts] + [frames], dtype=idx)
-    cols = concat([p[1] for p in parts] + [frames], dtype=idx)
-    vals = concat([p[2] for p in parts] + [np.asarray(frame_weight, float)], dtype=float)
-    del parts
+    k = A.shape[1]
+    rows, cols, vals = _patch_entries(A, blocks, np.asarray(frame_pos), np.asarray(frame_weight, float),
+                                      span(report, 0.0, 0.6))
     U = sp.csr_array((vals, (rows, cols)), shape=(k, k))
     del rows, cols, vals
     U.sum_duplicates()
@@ -114,14 +143,23 @@ def _upper_matrix(A: sp.csr_array, blocks: np.ndarray, frame_pos: np.ndarray, fr
 
 def upper_pattern(A: sp.csr_array) -> sp.csr_array:
     """``(k, k)`` CSR pattern (values: shared-patch counts) of the upper triangle :func:`normal_equations`
-    returns, from ``A (21 n, k)`` alone: every two unknowns of one patch couple (the frame points'
-    diagonal lies inside). Known before any term is set up (:class:`~trispline.fit.solve.PatternAnalysis`)."""
-    n = A.shape[0] // NCTRL
-    B = sp.csr_array((np.ones(A.nnz, np.float32), A.indices.copy(), A.indptr[::NCTRL].copy()), shape=(n, A.shape[1]))
-    B.sum_duplicates()  # (n, k): the unknowns of each patch (in place: hence the copies, A stays as it is)
-    P = sp.triu(B.T @ B, format="csr")
-    P.sort_indices()
-    return P
+    returns, from ``A (21 n, k)`` (sorted indices) alone: every two unknowns of one patch couple (the
+    frame points' diagonal lies inside). Known before any term is set up
+    (:class:`~trispline.fit.solve.PatternAnalysis`).
+
+    The product ``S = B^T B`` of the patch incidence has unsorted rows; its lower triangle's CSC is
+    the upper triangle's CSR with sorted columns (a counting sort: 3x faster than ``scipy.sparse.triu``
+    and a sort of the rows).
+    """
+    B = _patch_unknowns(A)
+    S = B.T @ B
+    k = S.shape[0]
+    row = np.repeat(np.arange(k, dtype=S.indices.dtype), np.diff(S.indptr))
+    lower = S.indices <= row
+    ptr = np.zeros(k + 1, S.indptr.dtype)
+    np.cumsum(np.bincount(row[lower], minlength=k), out=ptr[1:])
+    C = sp.csr_array((S.data[lower], S.indices[lower], ptr), shape=(k, k)).tocsc()  # sorted within columns
+    return sp.csr_array((C.data, C.indices, C.indptr), shape=(k, k))
 
 
 def normal_equations(A: sp.sparray | sp.spmatrix, c: np.ndarray, frame_pos: np.ndarray,
