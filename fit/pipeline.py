@@ -31,6 +31,7 @@ from trispline.spline.topology import Triangulation, signed_areas
 from trispline.spline.util.timer import StageTimer
 
 from . import energy as en
+from .boundary import outline_curves
 from .energy.data import DataPoints, as_data_points
 from .errors import FitError
 from .gauss_newton import QuadraticStep, iterate
@@ -168,8 +169,9 @@ def fit_surface(
     if dp is not None:
         dp = DataPoints(dp.face, dp.bary, (dp.xyz - centre) / size)
     analysis = PatternAnalysis()  # the factor's analysis runs on the pattern while the terms are set up
-    prob = en.setup_problem((V - centre) / size, space, weights, dp, report=stage_reporter(progress, ASSEMBLE),
-                            on_pattern=analysis.start)
+    with outline_curves(parameterization is not None):  # fit.boundary: a user's uv stays the surface's parameters
+        prob = en.setup_problem((V - centre) / size, space, weights, dp, report=stage_reporter(progress, ASSEMBLE),
+                                on_pattern=analysis.start)
     clock(ASSEMBLE)
     release_free_heap()
     step = QuadraticStep(prob) if solver is None and not prob.nonlinear else None  # compiles meanwhile

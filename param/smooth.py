@@ -36,7 +36,7 @@ from trispline.spline.util import gather
 from .distortion import fold_mask
 from .tables import undirected_edges
 
-__all__ = ["DEGREE", "RINGS", "WIDTH", "BOUNDARY_REACH", "BOUNDARY_MAX_MOVE", "smooth_uv"]
+__all__ = ["DEGREE", "RINGS", "WIDTH", "BOUNDARY_REACH", "BOUNDARY_MAX_MOVE", "fit_weights", "loop_corners", "smooth_uv"]
 
 #: Degree of the local polynomial fits (measured in docs/param.md: 3 removes the
 #: irregularity without a bias of its own; 2 leaves an ``O(h^3)`` one).
@@ -153,7 +153,7 @@ def _interior(V: np.ndarray, uv: np.ndarray, nbr: np.ndarray, h: np.ndarray, deg
     return np.matmul(s[:, None, :], gather.rows(uv, np.maximum(nbr, 0)))[:, 0]
 
 
-def _corners(P: np.ndarray) -> np.ndarray:
+def loop_corners(P: np.ndarray) -> np.ndarray:
     """``(n,)`` bool: vertices of the closed polyline ``P (n, 3)`` where it turns by more than the corner angle."""
     a, b = P - np.roll(P, 1, 0), np.roll(P, -1, 0) - P
     cos = (a * b).sum(1) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), np.finfo(float).tiny)
@@ -168,7 +168,7 @@ def _boundary(V: np.ndarray, uv: np.ndarray, loop: np.ndarray, degree: int) -> n
     P = V[loop]
     seg = np.linalg.norm(np.roll(P, -1, 0) - P, axis=1)  # seg[i]: i -> i + 1
     arc = np.concatenate([[0.0], np.cumsum(seg)])
-    corner = _corners(P)
+    corner = loop_corners(P)
     off = np.arange(-BOUNDARY_REACH, BOUNDARY_REACH + 1)
     i = np.arange(n)[:, None] + off  # (n, 2R+1), unwrapped
     s = arc[i % n] + np.floor_divide(i, n) * arc[-1] - arc[np.arange(n)][:, None]

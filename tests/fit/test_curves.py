@@ -1,0 +1,87 @@
+"""The outline faired as a curve (fit/curves.py) and the boundary patches' warp built from it (fit/boundary.py)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial import Delaunay
+from trispline.fit.boundary import outline_warp
+from trispline.fit.curves import bump_basis, bump_bernstein, loop_bulges
+from trispline.spline.index import DEGREE, EXPONENTS
+from trispline.spline.topology import signed_areas
+
+
+def _circle(n: int, radius: float = 1.0, jitter: float = 0.2, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    ang = 2 * np.pi * (np.arange(n) + rng.uniform(-jitter, jitter, n)) / n
+    return radius * np.stack([np.cos(ang), np.sin(ang)], 1)
+
+
+def test_the_bump_is_the_two_middle_bernstein_polynomials_flat_at_both_ends():
+    t = np.linspace(0, 1, 11)
+    np.testing.assert_allclose(bump_basis(t), np.stack([10 * t**2 * (1 - t) ** 3, 10 * t**3 * (1 - t) ** 2], 1))
+    np.testing.assert_allclose(bump_bernstein(0.3, 0.5), [10 * 0.3**3 * 0.5**2, 10 * 0.3**2 * 0.5**3])
+    eps = 1e-6  # value and slope vanish at t = 0 and 1
+    for end in (0.0, 1.0):
+        assert np.abs(bump_basis(np.array([end]))).max() == 0.0
+        assert np.abs(bump_basis(np.array([abs(end - eps)]))).max() < 1e-10
+
+
+def test_a_circle_bulges_outward_by_the_best_bump_of_its_sagitta():
+    """Edges of a counter-clockwise circle: the bump that best matches the arc's offset from its chord
+    (a = b = 1.8 S for the sagitta S), along the inner normal, so negative."""
+    uv = _circle(60)
+    P = np.column_stack([uv, np.zeros(len(uv))])
+    a, b, miss = loop_bulges(P, uv)
+    q = np.roll(uv, -1, 0)
+    half = np.arcsin(np.linalg.norm(q - uv, axis=1) / 2)  # half the arc's angle (radius 1)
+    sagitta = 1 - np.cos(half)
+    np.testing.assert_allclose(a, -1.8 * sagitta, rtol=0.03)
+    np.testing.assert_allclose(b, -1.8 * sagitta, rtol=0.03)
+    assert miss.max() < 1e-3
+
+
+def test_straight_sides_do_not_bulge_and_no_curve_reaches_round_a_corner():
+    side = np.linspace(0, 1, 9)[:-1]
+    uv = np.concatenate([np.column_stack([side, 0 * side]), np.column_stack([1 + 0 * side, side]),
+                         np.column_stack([1 - side, 1 + 0 * side]), np.column_stack([0 * side, 1 - side])])
+    P = np.column_stack([uv, uv[:, 0] * uv[:, 1]])  # a saddle over the square: its sides are straight lines
+    a, b, _ = loop_bulges(P, uv)
+    np.testing.assert_allclose(a, 0.0, atol=1e-12)
+    np.testing.assert_allclose(b, 0.0, atol=1e-12)
+
+
+def test_a_loop_too_short_for_a_curve_is_left_straight():
+    uv = _circle(5)
+    assert all((x == 0).all() for x in loop_bulges(np.column_stack([uv, 0 * uv[:, 0]]), uv))
+
+
+@pytest.fixture(scope="module")
+def disk():
+    inner = np.random.default_rng(1).uniform(-0.6, 0.6, (120, 2))
+    inner = inner[np.linalg.norm(inner, axis=1) < 0.8]
+    uv = np.concatenate([_circle(40, jitter=0.1), inner])
+    F = Delaunay(uv).simplices
+    flip = signed_areas(uv, F) < 0
+    F[flip] = F[flip][:, ::-1]
+    return uv, F
+
+
+def test_the_warp_moves_boundary_edges_onto_the_circle_and_leaves_the_rest(disk):
+    uv, F = disk
+    V = np.column_stack([uv, np.zeros(len(uv))])
+    shift = outline_warp(V, uv, F)
+    pts = np.einsum("gk,fkc->fgc", EXPONENTS / DEGREE, uv[F])
+    on_circle = np.isclose(np.linalg.norm(uv, axis=1), 1.0)
+    rim = on_circle[F].sum(1) == 2  # a face with one boundary edge (the disk's outline vertices)
+    assert np.abs(shift[~on_circle[F].any(1)]).max() == 0.0  # no outline vertex: no shift
+    for f in np.flatnonzero(rim):
+        k = int(np.flatnonzero(~on_circle[F[f]])[0])  # the face's inner vertex; the outline edge is opposite
+        i, j = (k + 1) % 3, (k + 2) % 3
+        # no shift on the face's two inner edges (nor at its corners)
+        assert np.abs(shift[f, (EXPONENTS[:, i] == 0) | (EXPONENTS[:, j] == 0)]).max() < 1e-15
+        # the outline edge's middle domain points: a sagitta inside the circle, after the shift within a fifth of it
+        edge = (EXPONENTS[:, k] == 0) & (EXPONENTS[:, i] > 0) & (EXPONENTS[:, j] > 0)
+        before = 1 - np.linalg.norm(pts[f, edge], axis=1)
+        after = 1 - np.linalg.norm(pts[f, edge] + shift[f, edge], axis=1)
+        assert (before > 0).all()
+        assert np.abs(after).max() < 0.2 * before.max()
