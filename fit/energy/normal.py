@@ -26,6 +26,7 @@ import scipy.sparse as sp
 from trispline.spline.index import NCTRL
 from trispline.spline.util.memory import index_dtype
 from trispline.spline.util.parallel import Workers
+from trispline.spline.util.sparse import compact
 
 from ..progress import Report, map_reporting, silent, span
 from ..solve import symmetric_from_upper
@@ -135,8 +136,7 @@ def _upper_matrix(A: sp.csr_array, blocks: np.ndarray, frame_pos: np.ndarray, fr
     U = sp.csr_array((vals, (rows, cols)), shape=(k, k))
     del rows, cols, vals
     U.sum_duplicates()
-    # the sums are views of the COO-sized buffers (duplicates included): 80 MB more at 100k faces
-    U.data, U.indices = U.data.copy(), U.indices.copy()
+    compact(U)  # the sums are views of the COO-sized buffers (duplicates included): 80 MB more at 100k faces
     (report or silent)(1.0)
     return U
 

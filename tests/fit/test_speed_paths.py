@@ -38,6 +38,7 @@ from trispline.spline.propagation import build_space  # noqa: E402
 from trispline.spline.testing.domains import orient_ccw, random_delaunay  # noqa: E402
 from trispline.spline.topology import Triangulation  # noqa: E402
 from trispline.spline.util.parallel import Workers  # noqa: E402
+from trispline.spline.util.sparse import compact  # noqa: E402
 
 HAS_PARDISO = importlib.util.find_spec("pypardiso") is not None
 
@@ -105,6 +106,26 @@ def test_pattern_from_the_patches_equals_the_assembled_one(problem):
     (P,) = seen
     U = sp.csr_array(prob.H_upper)
     assert P.shape == U.shape and np.array_equal(P.indptr, U.indptr) and np.array_equal(P.indices, U.indices)
+
+
+def test_compact_shrinks_the_summed_views_in_place_or_copies_them():
+    """``compact`` leaves the values as they are and ``data``/``indices`` exactly ``nnz`` long, owning their
+    memory: shrunk in place where nothing else views the COO-sized buffers, copied where something does."""
+    rng = np.random.default_rng(3)
+    r, c, v = rng.integers(0, 300, 40000), rng.integers(0, 300, 40000), rng.normal(size=40000)
+    for viewed in (False, True):
+        U = sp.csr_array((v, (r, c)), shape=(300, 300))
+        U.sum_duplicates()
+        assert U.data.base is not None and U.data.base.size > U.nnz  # prefix views of the COO-sized arrays
+        ref, kept = U.toarray(), U.data if viewed else None
+        before = None if kept is None else kept.copy()
+        compact(U)
+        for a in (U.data, U.indices):
+            assert a.base is None and a.size == U.nnz
+        np.testing.assert_array_equal(U.toarray(), ref)
+        if viewed:  # the outside view still reads what it read
+            assert not np.shares_memory(U.data, kept)
+            np.testing.assert_array_equal(kept, before)
 
 
 @pytest.mark.parametrize("backend", ["pardiso", "cholespy"] if HAS_PARDISO else ["cholespy"])
