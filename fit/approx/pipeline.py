@@ -58,6 +58,18 @@ DEFAULT_BUDGET_FRACTION = 0.10
 INITIAL_FRACTION = 0.005
 #: ... and at least this many vertices.
 INITIAL_MIN = 24
+#: A budget alone (no tolerance): the first coarse domain has this fraction of the budget; refinement
+#: spends the rest where the deviation is largest (:func:`_refine`).
+BUDGET_SEED = 0.25
+#: ... into every face with an inlier farther than this fraction of the scan's size (any: the worst faces first),
+BUDGET_THRESHOLD = 1e-12
+#: ... at most this fraction of the remaining room a round (the last vertices go one round at a time to
+#: the worst faces),
+BUDGET_STEP = 0.5
+#: ... unless the seed's inliers' median deviation is within this many noise estimates (about 1.5x that of
+#: Gaussian noise alone, 0.67: the noise floor is no reason to add a vertex; such a scan is fitted at the
+#: full budget at once).
+BUDGET_FLOOR = 1.0
 #: Refinement rounds at most.
 MAX_ROUNDS = 20
 #: Tries of a refinement round's insertion, each with the faces' next candidates (:func:`_grow`).
@@ -231,11 +243,11 @@ def _user_net(p, dom: CoarseDomain, space, ctrl: np.ndarray) -> tuple[np.ndarray
     return user_domain(coarse, ctrl, space.tri.uv)
 
 
-def _first_domain(V: np.ndarray, F: np.ndarray, uv: np.ndarray, opt: _Options) -> CoarseDomain:
-    """The starting coarse domain: the budget, or with a tolerance a coarser start (more if the outline needs it)."""
-    if not opt.refine:
-        return coarse_domain(V, F, uv, n_vertices=opt.budget)
-    k = min(opt.budget, max(INITIAL_MIN, int(round(INITIAL_FRACTION * V.shape[0]))))
+def _first_domain(V: np.ndarray, F: np.ndarray, uv: np.ndarray, opt: _Options, rounds: int) -> CoarseDomain:
+    """The starting coarse domain: with a tolerance a coarser start (more if the outline needs it), with a
+    budget alone :data:`BUDGET_SEED` of it (all of it with one round)."""
+    seed = INITIAL_FRACTION * V.shape[0] if opt.refine else BUDGET_SEED * opt.budget if rounds > 1 else opt.budget
+    k = min(opt.budget, max(INITIAL_MIN, int(round(seed))))
     while k < opt.budget:
         try:
             return coarse_domain(V, F, uv, n_vertices=k)
@@ -301,13 +313,18 @@ def approximate_surface(
 
     uv, faces, parameterization = _domain_uv(V, F, uv, param)
     stage("parameterize")
-    dom = _first_domain(V, faces, uv, opt)
+    dom = _first_domain(V, faces, uv, opt, max_rounds)
     stage("domain")
     if opt.auto:
         opt = dataclasses.replace(opt, weights=_smoothing(dom, V, opt))
         stage("smoothing")
     scale = None if opt.loss == "l2" else loss_scale(dom, opt.loss, diagonal)
     best, history, stop = _refine(V, dom, opt, scale, max_rounds, stage)
+    if not opt.refine and best.dom.stats.n_vertices < opt.budget and stop == "noise floor":
+        dom = coarse_domain(V, faces, uv, n_vertices=opt.budget)  # noise-dominated: the whole budget at once
+        stage("domain")
+        best, more, stop = _refine(V, dom, opt, scale, 1, stage)
+        history += more
     final, weights = _final(V, best, opt, scale, best.dom is not dom, stage)
     return _result(V, final, opt, weights, scale, history, stop, clock.timings, parameterization)
 
@@ -394,20 +411,22 @@ def _refine(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None
     had not flagged as spikes, which ``corners="data"`` then interpolates.)
     """
     best, history, stop = None, [], "rounds"
+    threshold = opt.tolerance if opt.refine else BUDGET_THRESHOLD * float(np.ptp(V, axis=0).max())
     for r in range(max_rounds):
         t0 = time.perf_counter()
         fit, located = _round_fit(V, dom, opt, scale)
         stage("fit")
-        state = measure(dom, V, fit, located, scale is not None, seconds=time.perf_counter() - t0)
+        state = measure(dom, V, fit, located, scale is not None, seconds=time.perf_counter() - t0,
+                        outline=not opt.refine)
         record = dict(state.record(), round=r + 1, tolerance=opt.tolerance, budget=opt.budget)
         history.append(record)
         stage("deviation", record=record)
         if best is None or state.max_deviation < best.max_deviation:
             best = state
-        if not opt.refine:
-            stop = "no tolerance"
+        if not opt.refine and r == 0 and state.inliers["p50"] <= BUDGET_FLOOR * dom.stats.noise:
+            stop = "noise floor"
             break
-        if state.max_deviation <= opt.tolerance:
+        if opt.refine and state.max_deviation <= opt.tolerance:
             stop = "tolerance met"
             break
         if dom.stats.n_vertices >= opt.budget:
@@ -415,7 +434,8 @@ def _refine(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None
             break
         if r + 1 == max_rounds:
             break
-        new = _grow(dom, state, opt.tolerance, opt.budget - dom.stats.n_vertices, opt.budget)
+        room = opt.budget - dom.stats.n_vertices
+        new = _grow(dom, state, threshold, room if opt.refine else int(np.ceil(BUDGET_STEP * room)), opt.budget)
         stage("refine")
         if new.stats.n_vertices == dom.stats.n_vertices:
             stop = "stalled"  # nothing could be inserted (every candidate too close to a vertex, or budget)

@@ -28,7 +28,7 @@ from .deviation import Deviation, summary, surface_deviation
 from .domain import MIN_SEPARATION, CoarseDomain, separation
 from .fit import CoarseFit
 
-__all__ = ["Round", "measure", "pick_vertices", "REJECT_SIGMAS", "GROWTH"]
+__all__ = ["Round", "measure", "outline_gaps", "pick_vertices", "REJECT_SIGMAS", "GROWTH"]
 
 #: A spike farther than this many noise standard deviations from the fit is rejected (robust losses only).
 REJECT_SIGMAS = 6.0
@@ -47,6 +47,10 @@ class Round:
     dom : CoarseDomain; fit : CoarseFit; located : ``(face (n,), bary (n, 3))`` of the scan in ``dom``
     deviation : Deviation of every scan vertex; rejected : (n,) bool
     inliers : :func:`~.deviation.summary` of the inliers' deviation; seconds : the round's time
+    outline : (n,) or None, each scan boundary vertex's distance to the surface at its nearest point of the
+        coarse boundary (the chord's sagitta in 3D, :func:`outline_gaps`; 0 elsewhere), which refinement
+        treats as a deviation: it is the surface-to-scan distance where a chord crosses a hole or a
+        concave run of the outline (the surface there has no data under it)
     """
 
     dom: CoarseDomain
@@ -56,6 +60,13 @@ class Round:
     rejected: np.ndarray
     inliers: dict
     seconds: float
+    outline: np.ndarray | None = None
+
+    @property
+    def pick_distance(self) -> np.ndarray:
+        """``(n,)`` what refinement reduces: the deviation, and with :attr:`outline` the larger of the two."""
+        d = self.deviation.distance
+        return d if self.outline is None else np.maximum(d, self.outline)
 
     @property
     def max_deviation(self) -> float:
@@ -63,21 +74,37 @@ class Round:
         return self.inliers["max"]
 
     def record(self) -> dict:
-        """The round in a few numbers (vertices, patches, deviation, rejected, seconds)."""
+        """The round in a few numbers (vertices, patches, deviation max, rms and median, rejected, seconds)."""
         return dict(vertices=int(self.dom.stats.n_vertices), patches=int(self.dom.stats.n_faces),
-                    max=self.inliers["max"], rms=self.inliers["rms"], rejected=int(self.rejected.sum()),
+                    max=self.inliers["max"], rms=self.inliers["rms"], p50=self.inliers["p50"],
+                    rejected=int(self.rejected.sum()),
                     iterations=int(self.fit.iterations), seconds=self.seconds)
 
 
 def measure(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit, located: tuple[np.ndarray, np.ndarray],
-            robust: bool, seconds: float = 0.0) -> Round:
-    """The deviation of every scan vertex ``V (n, 3)`` from ``fit``, and the rejected ones (none unless ``robust``)."""
+            robust: bool, seconds: float = 0.0, outline: bool = False) -> Round:
+    """The deviation of every scan vertex ``V (n, 3)`` from ``fit``, and the rejected ones (none unless ``robust``);
+    with ``outline`` the outline's gaps too (:func:`outline_gaps`)."""
     dev = surface_deviation(fit.surface, V)
     rejected = np.zeros(V.shape[0], bool)
     if robust:
         rejected = dom.analysis.spike & (dev.distance > REJECT_SIGMAS * dom.stats.noise)
     return Round(dom=dom, fit=fit, located=located, deviation=dev, rejected=rejected,
-                 inliers=summary(dev.distance, ~rejected), seconds=seconds)
+                 inliers=summary(dev.distance, ~rejected), seconds=seconds,
+                 outline=outline_gaps(dom, V, fit) if outline else None)
+
+
+def outline_gaps(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit) -> np.ndarray:
+    """``(n,)`` each scan boundary vertex's distance to the surface at its nearest point of the coarse
+    boundary (uv), 0 for the other scan vertices: where a boundary chord runs over a hole or a concave
+    run of the outline, the surface between it and the scan's outline has no data under it and stands
+    about this far from the scan."""
+    ids = np.concatenate(dom.loops)
+    edge, t, _ = dom.locator.project(dom.scan_uv[ids])
+    face, bary, _ = dom.locator.on_edge(edge, t)
+    gap = np.zeros(V.shape[0])
+    gap[ids] = np.linalg.norm(fit.surface.evaluate(face, bary) - V[ids], axis=1)
+    return gap
 
 
 def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray | None = None) -> np.ndarray:
@@ -96,7 +123,7 @@ def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray
     ``room`` and at most ``(GROWTH - 1)`` times the vertex count. ``exclude``: scan ids not to pick
     (ones an earlier try could not insert).
     """
-    dom, d = state.dom, state.deviation.distance
+    dom, d = state.dom, state.pick_distance
     face, bary = state.located
     over = ~state.rejected & (d > tolerance)
     worst = np.zeros(dom.stats.n_faces)

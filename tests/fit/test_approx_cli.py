@@ -81,7 +81,9 @@ def test_vertices_alone_fits_at_most_that_many(scan, tmp_path, capsys):
     assert rc == 0, err
     d = json.loads(stdout)
     assert d["vertices"] <= 50 and d["tolerance"] is None and not d["met"]
-    assert len(d["rounds"]) == 1 and d["stop"] == "no tolerance"
+    # a budget alone is spent where the deviation is largest, from a quarter of it; a noisy scan whose
+    # seed already sits at the noise floor is fitted at the whole budget at once instead
+    assert d["stop"] in ("budget", "noise floor", "stalled") and all(r["vertices"] <= 50 for r in d["rounds"])
     assert "uses only the bend and data weights; ignored: tilt" in err
 
 
