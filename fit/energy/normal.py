@@ -69,32 +69,30 @@ def _patch_unknowns(A: sp.csr_array) -> sp.csr_array:
     return B
 
 
-def _patch_upper(A: sp.csr_array, blocks: np.ndarray, lo: int, hi: int, out: tuple[np.ndarray, ...],
-                 start: int) -> None:
+def _patch_upper(A: sp.csr_array, B: sp.csr_array, blocks: np.ndarray, lo: int, hi: int,
+                 out: tuple[np.ndarray, ...], start: int) -> None:
     """Writes the upper-triangle entries ``(row, col, value)`` of ``sum_f A_f^T B_f A_f`` over patches
     ``lo:hi`` into ``out = (rows, cols, vals)`` from ``start`` on (the chunks' entries follow each other).
 
     ``A_f`` (rows ``21 f .. 21 f + 20`` of ``A``) is made dense over the patch's own sorted
-    unknowns ``U_f``; since ``U_f`` is sorted, local ``i <= j`` is global ``row <= col``.
+    unknowns ``U_f`` (row ``f`` of the incidence ``B``, :func:`_patch_unknowns`); since ``U_f`` is
+    sorted, local ``i <= j`` is global ``row <= col``.
     """
-    m = hi - lo
-    ptr = A.indptr[NCTRL * lo:NCTRL * hi + 1]
-    row = np.repeat(np.arange(NCTRL * m), np.diff(ptr))
-    patch, slot = np.divmod(row, NCTRL)
-    col = A.indices[ptr[0]:ptr[-1]].astype(np.int64)
-    val = A.data[ptr[0]:ptr[-1]]
-    order = np.argsort(patch * A.shape[1] + col, kind="stable")
-    patch, slot, col, val = patch[order], slot[order], col[order], val[order]
-    new = np.ones(col.size, bool)
-    new[1:] = (col[1:] != col[:-1]) | (patch[1:] != patch[:-1])
-    n_unknowns = np.bincount(patch[new], minlength=m)  # (m,) u_f
-    first = np.cumsum(n_unknowns) - n_unknowns
-    local = np.cumsum(new) - 1 - first[patch]  # index of each entry's unknown in U_f
+    m, k = hi - lo, A.shape[1]
+    bp = B.indptr[lo:hi + 1]
+    n_unknowns = np.diff(bp)  # (m,) u_f
+    first = bp[:-1] - bp[0]
+    ucol = B.indices[bp[0]:bp[-1]].astype(np.int64)
+    upatch = np.repeat(np.arange(m), n_unknowns)
     width = int(n_unknowns.max()) if m else 0
     U = np.zeros((m, width), out[0].dtype)
-    U[patch[new], local[new]] = col[new]
+    U[upatch, np.arange(ucol.size) - first[upatch]] = ucol
+    ptr = A.indptr[NCTRL * lo:NCTRL * hi + 1]
+    patch, slot = np.divmod(np.repeat(np.arange(NCTRL * m), np.diff(ptr)), NCTRL)
+    # each entry's unknown in U_f: B's (patch, column) keys are sorted
+    local = np.searchsorted(upatch * k + ucol, patch * k + A.indices[ptr[0]:ptr[-1]]) - first[patch]
     Ad = np.zeros((m, NCTRL, width))
-    Ad[patch, slot, local] = val  # CSR rows hold no duplicate columns
+    Ad[patch, slot, local] = A.data[ptr[0]:ptr[-1]]  # CSR rows hold no duplicate columns
     K = np.matmul(Ad.transpose(0, 2, 1), np.matmul(blocks[lo:hi], Ad))  # (m, u, u)
     iu, ju = np.triu_indices(width)
     keep = ju[None, :] < n_unknowns[:, None]  # (m, pairs): both unknowns exist (iu <= ju)
@@ -112,14 +110,15 @@ def _patch_entries(A: sp.csr_array, blocks: np.ndarray, frame_pos: np.ndarray, f
     concatenate: 0.2 CPU s and 270 MB less at 100k faces).
     """
     n, k = blocks.shape[0], A.shape[1]
-    u = np.diff(_patch_unknowns(A).indptr)
+    B = _patch_unknowns(A)
+    u = np.diff(B.indptr)
     offset = np.zeros(n + 1, np.int64)
     np.cumsum(u * (u + 1) // 2, out=offset[1:])  # each patch's pairs i <= j of its unknowns
     m, base = frame_pos.size, int(offset[-1])
     idx = index_dtype(k)
     out = (np.empty(base + m, idx), np.empty(base + m, idx), np.empty(base + m))
     with Workers(n, parallel_min=2 * PATCH_CHUNK) as work:
-        map_reporting(work, lambda lo, hi: _patch_upper(A, blocks, lo, hi, out, int(offset[lo])), n, PATCH_CHUNK,
+        map_reporting(work, lambda lo, hi: _patch_upper(A, B, blocks, lo, hi, out, int(offset[lo])), n, PATCH_CHUNK,
                       report)
     out[0][base:] = frame_pos
     out[1][base:] = frame_pos
