@@ -22,6 +22,18 @@ edge midpoints) of every patch, and ``d`` is their largest distance from their m
 patch's mean 3D edge length. A patch is trusted fully up to :data:`AGREE_OK`, not at all from
 :data:`AGREE_BAD` on, log-linear between; an untrusted patch is faired by the plain thin plate
 and the ``tilt`` term alone (its local weight and its bend reference scaled by ``gamma``).
+
+Where the data are rough at the scale of the edges (a registered scan whose neighbouring faces
+differ by 60 degrees and more), the fits agree with each other and still cannot be trusted: each
+interpolates the same noise. Such a fit has no skill: its leave-one-out error at the points
+nearest its vertex is as large as those points' own departure from the fit's plane (the linear
+trend it removes first), and large against the edges. :func:`fit_skill` is that ratio: the pelvis
+scan's median 1.05, the 2D benchmark's 100-point sets 0.09-0.11, the shared meshes 0.00-0.26
+(lilium). Spline patches next to the pelvis's outline reached 438x the data's largest curvature,
+following the fits' tangent planes (``tilt``) and nets (``local``) between interpolated noise.
+:func:`fit_trust` takes a vertex's tangent-frame target and the local targets of its patches
+away as far as both its error over its mean edge length (:data:`ROUGH_OK` to :data:`ROUGH_BAD`)
+and its skill ratio (:data:`SKILL_OK` to :data:`SKILL_BAD`) say so; the thin plate fairs them.
 """
 from __future__ import annotations
 
@@ -30,12 +42,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 from trispline.spline.topology import mean_edge_lengths
 
+from .targets import RBF_LOO_POINTS
 
 if TYPE_CHECKING:
     from .energy.context import TermContext
 
-__all__ = ["AGREE_BAD", "AGREE_OK", "PROBES", "SLIVER_BEND_MAX", "THIN_OK", "THIN_POWER", "disagreement", "local_trust",
-           "log_fade", "sliver_bend"]
+__all__ = ["AGREE_BAD", "AGREE_OK", "PROBES", "ROUGH_BAD", "ROUGH_OK", "SKILL_BAD", "SKILL_OK", "SLIVER_BEND_MAX", "THIN_OK", "THIN_POWER",
+           "disagreement", "fit_skill", "fit_trust", "frame_trust", "local_trust", "log_fade", "sliver_bend"]
 
 #: A patch's local fits agreeing to this fraction of its mean edge length are fully trusted.
 AGREE_OK = 0.1
@@ -49,6 +62,15 @@ THIN_POWER = 3
 #: aspect 1e5 made the normal matrix indefinite in floating point; the camel head's and beetle's
 #: spiking slivers need 4 and 9).
 SLIVER_BEND_MAX = 10.0
+#: A local fit whose leave-one-out error is this fraction of its vertex's mean edge length is fully
+#: trusted, ... (see the module docstring; measured in docs/fit.md, "Spikes on real meshes")
+ROUGH_OK = 0.05
+#: ... and loses its targets from this fraction on, as far as its skill ratio allows:
+ROUGH_BAD = 0.2
+#: a fit whose :func:`fit_skill` ratio is at most this keeps its targets, one from :data:`SKILL_BAD`
+#: on is trusted only as far as its error allows.
+SKILL_OK = 0.3
+SKILL_BAD = 0.6
 #: (4, 3) barycentric points where the three fits are compared: the centroid and the edge midpoints.
 PROBES = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5]])
 
@@ -80,12 +102,47 @@ def log_fade(x: np.ndarray, ok: float, bad: float) -> np.ndarray:
     return np.clip((hi - np.log(np.maximum(x, np.finfo(float).tiny))) / (hi - lo), 0.0, 1.0)
 
 
+def fit_skill(fit) -> np.ndarray:
+    """``(nv,)`` the leave-one-out error of each local fit of ``fit`` (a
+    :class:`~trispline.fit.targets.LocalRBFFit`) over the RMS departure of the same points (the
+    :data:`~trispline.fit.targets.RBF_LOO_POINTS` nearest its vertex, the vertex included) from the
+    fit's linear trend: about 1 or more where the fit interpolates noise, well below 1 where it
+    predicts (see the module docstring)."""
+    X = fit.centres[:, :RBF_LOO_POINTS]  # (nv, k, 2) scaled uv offsets, the vertex first; padding at 0
+    vals = fit.evaluate(np.arange(len(X)), fit.origin[:, None, :] + X * fit.scale[:, None, None])  # the data
+    Y = vals - fit.value[:, None, :] - np.einsum("vki,vid->vkd", X, fit.slope)
+    real = np.abs(X).sum(-1) > 0
+    real[:, 0] = True
+    relief = np.sqrt(np.where(real[..., None], Y * Y, 0.0).sum((1, 2)) / (real.sum(1) * Y.shape[2]))
+    return fit.loo / np.maximum(relief, np.finfo(float).tiny)
+
+
+def fit_trust(ctx: TermContext) -> np.ndarray:
+    """``(h,)`` in [0, 1] per halo vertex: 1 minus how far its local fit both misses its neighbours
+    against the edges (:data:`ROUGH_OK`, :data:`ROUGH_BAD`) and has no skill (:func:`fit_skill`,
+    :data:`SKILL_OK`, :data:`SKILL_BAD`); 1 without local fits. Computed once per context."""
+    if ctx.fit is None:
+        return np.ones(len(ctx.V))
+    if "fit_trust" not in ctx.memo:
+        h = mean_edge_lengths(ctx.V, ctx.halo_faces)
+        rough = 1.0 - log_fade(ctx.fit.loo / np.maximum(h, np.finfo(float).tiny), ROUGH_OK, ROUGH_BAD)
+        noise = 1.0 - log_fade(fit_skill(ctx.fit), SKILL_OK, SKILL_BAD)
+        ctx.memo["fit_trust"] = 1.0 - rough * noise
+    return ctx.memo["fit_trust"]
+
+
+def frame_trust(ctx: TermContext) -> np.ndarray:
+    """``(m,)`` the :func:`fit_trust` of the context's frame vertices (the ``tilt`` term's factor)."""
+    return fit_trust(ctx)[ctx.frame_vertices]
+
+
 def local_trust(ctx: TermContext) -> np.ndarray:
-    """``(n,)`` in [0, 1]: the weight of each patch's local targets (see the module docstring);
-    computed once per context."""
+    """``(n,)`` in [0, 1]: the weight of each patch's local targets (see the module docstring): their
+    agreement, and the least :func:`fit_trust` of its three vertices; computed once per context."""
     if "trust" not in ctx.memo:  # the local and bend terms share it
         thin = np.maximum(_thinness(ctx.uv[ctx.faces]) / THIN_OK, 1.0)
-        ctx.memo["trust"] = log_fade(disagreement(ctx) * thin ** THIN_POWER, AGREE_OK, AGREE_BAD)
+        agree = log_fade(disagreement(ctx) * thin ** THIN_POWER, AGREE_OK, AGREE_BAD)
+        ctx.memo["trust"] = agree * fit_trust(ctx)[ctx.faces].min(1)
     return ctx.memo["trust"]
 
 

@@ -199,14 +199,44 @@ def _drop_pinched_fans(F: np.ndarray, nv: int) -> np.ndarray:
         Fk = F[keep]
         _, _, he_edge, _ = undirected_edges(Fk, nv)
         lab = corner_fans(Fk, *edge_pairs(he_edge))
-        v = Fk.ravel()
-        size = np.bincount(lab)[lab]  # corners in each corner's fan
-        best = np.zeros(nv, np.int64)
-        np.maximum.at(best, v, size * (lab.size + 1) + (lab.size - lab))  # largest fan, lowest label on ties
-        minor = (best[v] != size * (lab.size + 1) + (lab.size - lab)).reshape(-1, 3).any(1)
+        minor = ~_largest_of(lab, Fk.ravel(), nv).reshape(-1, 3).all(1)
         if not minor.any():
             break
         keep = keep[~minor]
+    return keep
+
+
+def _largest_of(group: np.ndarray, owner: np.ndarray, n_owners: int) -> np.ndarray:
+    """``(k,)`` bool: whether each item's ``group (k,)`` is the largest (most items; the lowest label
+    on ties) of the groups of its ``owner (k,)`` (ids in ``[0, n_owners)``)."""
+    size = np.bincount(group)[group]
+    score = size * (group.size + 1) + (group.size - group)
+    best = np.zeros(n_owners, np.int64)
+    np.maximum.at(best, owner, score)
+    return best[owner] == score
+
+
+def _drop_pinches(F: np.ndarray, source: np.ndarray) -> np.ndarray:
+    """Indices ``(nf',)`` of the faces of the split, edge-manifold ``F`` left when every pinch is undone.
+
+    A pinch: copies of one input vertex (``source``) in one connected piece, where the split left
+    the piece's own fans meeting at one point (holes that touch at a vertex, the flap cut's bowties):
+    an interpolating surface passes through that point twice, and the fit spiked there (docs/fit.md,
+    "Spikes on real meshes"). Only the copy with the most faces keeps its faces; copies in different
+    pieces (separate sheets glued at a point) stay, and the largest piece is chosen later. Where
+    dropping faces makes fans meet at one copy, the smaller go too (:func:`_drop_pinched_fans`).
+    """
+    keep = _drop_pinched_fans(F, source.size)
+    for _ in range(MAX_SPLIT_ROUNDS):
+        Fk = F[keep]
+        _, piece = vertex_components(Fk, source.size)
+        corner = Fk.ravel()
+        _, pair = np.unique(source[corner] * np.int64(source.size) + piece[corner], return_inverse=True)
+        minor = ~_largest_of(corner, pair.ravel(), int(pair.max()) + 1).reshape(-1, 3).all(1)
+        if not minor.any():
+            break
+        keep = keep[~minor]
+        keep = keep[_drop_pinched_fans(F[keep], source.size)]
     return keep
 
 
@@ -229,7 +259,7 @@ _WORDS = {
     "duplicate_faces": "dropped {} duplicate faces (same three vertices as an earlier face)",
     "non_manifold_edges": "cut {} non-manifold edges down to two faces each",
     "folded_flap_faces": "cut off {} faces of folded flaps (adjacent faces whose normals point apart)",
-    "pinched_fan_faces": "dropped {} faces of the smaller fans where the flap cut left fans meeting at a vertex",
+    "pinched_fan_faces": "dropped {} faces of the smaller fans where one piece of the surface met itself at a vertex",
     "split_vertices": "split {} bowtie or non-manifold vertices into one copy per fan of faces ({} added)",
     "dropped_components": "dropped {} smaller connected components ({} faces)",
     "dropped_vertices": "{} input vertices are in no output face",
@@ -279,12 +309,11 @@ def repair_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = True) -> R
     changes["folded_flap_faces"] = int(Fw.shape[0] - flaps.size)
     if not flaps.size:
         raise MeshError("repair left no faces (every face was on a folded flap)", ["empty"])
-    changes["pinched_fan_faces"] = 0
-    if flaps.size < Fw.shape[0]:
-        flaps = flaps[_drop_pinched_fans(Fw[flaps], source.size)]
-        changes["pinched_fan_faces"] = int(Fw.shape[0] - flaps.size - changes["folded_flap_faces"])
-        faces = faces[flaps]
-        Fw, source, cut = _manifold(Fw[flaps], source)
+    kept = flaps[_drop_pinches(Fw[flaps], source)]
+    changes["pinched_fan_faces"] = int(flaps.size - kept.size)
+    if kept.size < Fw.shape[0]:
+        faces = faces[kept]
+        Fw, source, cut = _manifold(Fw[kept], source)
         changes["non_manifold_edges"] += cut
     copies = np.bincount(source, minlength=nv)
     changes["split_vertices"] = int((copies > 1).sum())

@@ -1,4 +1,4 @@
-"""A generated mesh that folds over (shared by the repair, inspect and CLI tests)."""
+"""Generated meshes with the defects of real scans (shared by the repair, inspect, agreement and CLI tests)."""
 from __future__ import annotations
 
 import numpy as np
@@ -25,3 +25,21 @@ def folded_grid(n: int, flaps: list[int], *, seed: int = 0) -> tuple[np.ndarray,
     extra_v += [V[t - n] + [0.0, 0.0, 0.01], V[t - n + 1] + [0.0, 0.0, 0.01]]
     extra_f += [[t, t + 1, q], [q, t + 1, q + 1]]
     return np.vstack([V, extra_v]), np.vstack([F, extra_f]).astype(np.int64), nf
+
+
+def rough_holey_grid(n: int, *, roughness: float = 0.5, drop: float = 0.1,
+                     seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A jittered ``n x n`` grid over a smooth bump whose heights carry noise of ``roughness`` edge
+    lengths (standard deviation), with a share ``drop`` of its faces removed at random (many small
+    holes, most vertices on an outline), like a rough registered scan. Returns ``(V, F)``,
+    not yet repaired (the holes leave bowtie vertices)."""
+    rng = np.random.default_rng(seed)
+    h = 1.0 / (n - 1)
+    x, y = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
+    x = x + 0.1 * h * rng.normal(size=x.shape)
+    y = y + 0.1 * h * rng.normal(size=y.shape)
+    z = 0.3 * np.sin(3 * x) * np.cos(2 * y) + roughness * h * rng.normal(size=x.shape)
+    i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1))
+    a = (j * n + i).ravel()
+    F = np.vstack([np.column_stack([a, a + 1, a + n + 1]), np.column_stack([a, a + n + 1, a + n])])
+    return np.column_stack([x.ravel(), y.ravel(), z.ravel()]), F[rng.random(F.shape[0]) >= drop]

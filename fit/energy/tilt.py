@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..agreement import frame_trust
 from .arrays import Array
 
 if TYPE_CHECKING:
@@ -30,7 +31,7 @@ def setup(ctx: TermContext) -> dict[str, np.ndarray]:
     grad = ctx.fit.grad[ctx.frame_vertices]  # (m, 3, 2)
     step = (d / 5.0)[:, None]
     target = np.concatenate([Vf + grad[:, :, 0] * step, Vf + grad[:, :, 1] * step])
-    scale = np.tile(np.sqrt(ctx.weights.tilt * ctx.vertex_area) * 5.0 / d**2, 2)
+    scale = np.tile(np.sqrt(ctx.weights.tilt * ctx.vertex_area) * 5.0 / d**2 * frame_trust(ctx), 2)  # fit.agreement
     return dict(target=target, scale=scale)
 
 

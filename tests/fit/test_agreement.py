@@ -36,6 +36,9 @@ class _Shifted:
         out[..., 2] += np.where((vertex == self.v)[:, None] & away, self.shift, 0.0)
         return out
 
+    def __getattr__(self, name):  # the rest (loo, power, ...) is the fit's
+        return getattr(self.fit, name)
+
 
 def test_smooth_data_is_trusted_everywhere():
     ctx = _context()

@@ -4,12 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from trispline.param import MeshError, fold_mask, inspect_mesh, parameterize, repair_mesh, validate_mesh
+from folded_meshes import folded_grid, rough_holey_grid
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from trispline.param import (
+    MeshError,
+    fold_mask,
+    inspect_mesh,
+    parameterize,
+    repair_mesh,
+    validate_mesh,
+)
 from trispline.param.testing import broken_scan, bumpy_disk, lift
 from trispline.spline.testing.domains import random_delaunay
-
-from folded_meshes import folded_grid
 
 
 def test_broken_scan_repairs_into_its_disk():
@@ -114,3 +121,45 @@ def test_clean_meshes_lose_no_face_to_the_fold_cut():
         assert inspect_mesh(V, F)["folded_edges"] == 0
         r = repair_mesh(V, F)
         assert r.changes["folded_flap_faces"] == r.changes["pinched_fan_faces"] == 0 and not r.changed
+
+
+def _pieces_repeat_a_source(r) -> bool:
+    """Whether two output vertices of one connected piece come from one input vertex (a pinch)."""
+    from trispline.param.tables import vertex_components
+
+    _, piece = vertex_components(r.F, r.V.shape[0])
+    used = np.unique(r.F)
+    pairs = np.stack([r.source_vertex_index[used], piece[used]], 1)
+    return np.unique(pairs, axis=0).shape[0] < used.size
+
+
+@settings(max_examples=12)
+@given(st.floats(0.0, 0.2), st.integers(0, 2**31 - 1))
+def test_holes_meeting_at_a_vertex_keep_its_largest_fan(drop, seed):
+    # random holes touch each other at vertices: split there, the surface would pinch (pass
+    # through one point twice); the repair keeps the largest fan of every such vertex instead
+    V, F = rough_holey_grid(14, roughness=0.0, drop=drop, seed=seed)
+    r = repair_mesh(V, F)
+    np.testing.assert_array_equal(r.V, V[r.source_vertex_index])
+    np.testing.assert_array_equal(r.source_vertex_index[r.F], F[r.source_face_index])
+    assert not _pieces_repeat_a_source(r)
+    vm = validate_mesh(r.V, r.F)  # accepted: one manifold piece, no bowtie
+    assert vm.F.shape[0] == r.F.shape[0]
+    assert r.changes["folded_flap_faces"] == 0  # smooth: nothing folds
+    if r.changes["pinched_fan_faces"]:
+        assert any("met itself at a vertex" in m for m in r.messages)
+    if drop == 0.0:
+        assert not r.changed
+
+
+def test_a_pinch_drops_the_smaller_fan_only():
+    # a 6 x 6 grid with two holes that share one vertex: the smaller fan there goes, nothing else
+    V, F = rough_holey_grid(6, roughness=0.0, drop=0.0, seed=0)
+    c = 2 * 6 + 2  # vertex (2, 2): the holes are faces of cells (1, 1) and (2, 2)
+    hole = [k + s for k in (1 * 5 + 1, 2 * 5 + 2) for s in (0, 25)]  # a cell's two faces: k and k + 5 * 5
+    F = np.delete(F, hole, axis=0)
+    assert inspect_mesh(V, F)["bowtie_vertices"] == 1
+    r = repair_mesh(V, F)
+    assert r.changes["pinched_fan_faces"] in (1, 2) and r.changes["split_vertices"] == 0
+    assert not _pieces_repeat_a_source(r) and np.isin(c, r.source_vertex_index)
+    assert r.F.shape[0] == F.shape[0] - r.changes["pinched_fan_faces"]
