@@ -63,6 +63,13 @@ class Round:
     outline: np.ndarray | None = None
 
     @property
+    def worst(self) -> float:
+        """The inliers' largest :attr:`pick_distance` (model units): with :attr:`outline`, what a budget's
+        refinement minimises (the surface-to-scan side of the outline included)."""
+        d = self.pick_distance[~self.rejected]
+        return float(d.max()) if d.size else 0.0
+
+    @property
     def pick_distance(self) -> np.ndarray:
         """``(n,)`` what refinement reduces: the deviation, and with :attr:`outline` the larger of the two."""
         d = self.deviation.distance

@@ -16,6 +16,7 @@ from trispline.fit.approx.fit import (  # noqa: E402
     BEND_WEIGHT_RANGE, DATA_WEIGHTS, EXTRAPOLATION, bend_face_weights, cross_validated_weight, quadric_reference,
 )
 from trispline.fit.approx.pipeline import loss_scale  # noqa: E402
+from trispline.fit.approx.refine import outline_gaps  # noqa: E402
 from trispline.fit.datasets.truth import grid_with_hole, truth_scan  # noqa: E402
 from trispline.fit.energy import robust  # noqa: E402
 from trispline.fit.energy.data import DataPoints  # noqa: E402
@@ -107,6 +108,61 @@ def test_refinement_never_raises_the_maximum_deviation():
     assert res.history[-1]["vertices"] > res.history[0]["vertices"]
     if res.stats["met"]:
         assert res.stats["deviation"]["max"] <= res.stats["tolerance"]
+
+
+def _worst(res, V: np.ndarray) -> float:
+    """The largest of the deviation and the outline's gaps (what a budget's refinement lowers)."""
+    return max(res.stats["deviation"]["max"], float(outline_gaps(res.domain, V, _fit_of(res, V)).max()))
+
+
+def _fit_of(res, V: np.ndarray):
+    """The plain fit over the result's domain with its weights (its own surface for the plain loss)."""
+    return fit_domain(res.domain, V, loss="l2", weights=res.weights)
+
+
+def test_a_budget_alone_is_spent_where_the_deviation_is_largest():
+    """Clean data: from a quarter of the budget, half the remaining room a round, worst faces first;
+    the result beats one domain of the whole budget (sized by curvature alone) on the larger of the
+    deviation and the outline's gaps, and does not raise the RMS."""
+    s = truth_scan("bumps", 3000, sigma=0.0, seed=2)
+    once = approximate_surface(s.V, s.F, uv=s.params, n_vertices=60, loss="l2", max_rounds=1)
+    res = approximate_surface(s.V, s.F, uv=s.params, n_vertices=60, loss="l2")
+    counts = [h["vertices"] for h in res.history]
+    assert len(once.history) == 1 and once.stats["vertices"] <= 60
+    assert counts[0] <= 0.25 * 60 and counts == sorted(counts) and counts[-1] <= 60 and len(counts) >= 4
+    assert res.stats["stop"] in ("budget", "stalled")
+    assert _worst(res, s.V) < 0.6 * _worst(once, s.V)
+    assert res.stats["deviation"]["rms"] <= once.stats["deviation"]["rms"]
+
+
+def test_a_noisy_scan_at_the_noise_floor_gets_the_whole_budget_at_once():
+    s = truth_scan("cap", 3000, sigma=2e-3, seed=7)
+    res = approximate_surface(s.V, s.F, uv=s.params, n_vertices=60, loss="l2")
+    once = approximate_surface(s.V, s.F, uv=s.params, n_vertices=60, loss="l2", max_rounds=1)
+    assert res.stats["stop"] == "noise floor" and res.history[-1]["vertices"] == res.stats["vertices"] >= 54
+    np.testing.assert_array_equal(res.vertices, once.vertices)  # the same domain, and its own smoothing:
+    assert res.stats["data_weight"] == once.stats["data_weight"]
+
+
+def test_outline_gaps_are_the_distance_across_the_chords():
+    """On a plane (reproduced exactly, extensions included) a scan boundary vertex's gap is its uv
+    distance to the coarse boundary mapped by the plane's Jacobian; 0 off the outline and at the
+    coarse boundary vertices."""
+    V, F, st = height_field(PLANE, n=2000)
+    res = approximate_surface(V, F, uv=st, n_vertices=30, loss="l2", max_rounds=1)
+    dom = res.domain
+    gap = outline_gaps(dom, V, _fit_of(res, V))
+    ids = np.concatenate(dom.loops)
+    off = np.ones(V.shape[0], bool)
+    off[ids] = False
+    assert (gap[off] == 0).all()
+    assert gap[np.intersect1d(res.vertices, ids)].max() <= 1e-12
+    across = np.linalg.norm(dom.locator.project(dom.scan_uv[ids])[2] - dom.scan_uv[ids], axis=1)
+    far = across > 1e-9
+    assert far.sum() > 10
+    scale = np.linalg.norm(st[1] - st[0]) / np.linalg.norm(dom.scan_uv[1] - dom.scan_uv[0])  # uv normalisation
+    ratio = gap[ids][far] / (across[far] * scale)
+    assert ratio.min() >= 1.0 - 1e-9 and ratio.max() <= np.sqrt(1 + 0.3**2 + 0.2**2) + 1e-9
 
 
 def test_tolerance_met_reports_what_was_reached():
