@@ -31,22 +31,29 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
+from scipy.spatial import cKDTree
 from trispline.param.tables import boundary_loops, undirected_edges
 from trispline.spline.index import DEGREE, EXPONENTS
 from trispline.spline.topology import mean_edge_lengths
 
 from .agreement import local_trust, log_fade
 from .curves import bump_bernstein, loop_bulges
+from .progress import Report
 
 if TYPE_CHECKING:
     from .energy.context import TermContext
 
-__all__ = ["CURVE_WARP", "RAGGED_MISS", "RELATIVE_BEND", "SMOOTH_MISS", "TRUSTED_LOO", "UNTRUSTED_LOO",
-           "bend_reference", "outline_curves", "outline_warp", "trust"]
+__all__ = ["CURVE_WARP", "EAR_TARGETS", "RAGGED_MISS", "RELATIVE_BEND", "SMOOTH_MISS", "TRUSTED_LOO", "UNTRUSTED_LOO",
+           "bend_reference", "ear_substitutes", "outline_curves", "outline_warp", "trust"]
 
+#: Whether an ear's targets (a patch with all three vertices on the outline: its vertices' local fits
+#: are all one-sided) come from the fit of the nearest vertex off the outline (:func:`ear_substitutes`).
+#: Measured in docs/fit.md, "The boundary": the rectangular analytic domains' corners are ears.
+EAR_TARGETS = True
 #: Whether the boundary patches' targets follow the outline faired as a curve (:func:`outline_warp`)
 #: where the fit made its domain itself (:func:`outline_curves`).
 CURVE_WARP = True
@@ -87,8 +94,42 @@ def bend_reference(ctx: TermContext, blended_targets: Callable) -> np.ndarray:
     if CURVE_WARP and _CURVES.get() and ctx.faces.shape == ctx.halo_faces.shape:  # the halo's outline is the mesh's
         shift = outline_warp(ctx.V, ctx.uv, ctx.faces)
         if shift.any():  # the local term's targets come from the same evaluations (local.shared_targets)
-            evaluate = lambda v, pts, report=None: ctx.fit.evaluate(v, pts + shift, report)
+            evaluate = partial(_shifted, evaluate, shift)
+    if EAR_TARGETS:
+        sub = ear_substitutes(ctx.uv, ctx.halo_faces, ctx.faces)
+        ears = sub >= 0
+        if ears.any():  # an ear's three fits are all one-sided: its nets from the nearest inner vertex's fit
+            beta = np.where(ears, trust(ctx)[np.maximum(sub, 0)] * local_trust(ctx), beta)
+            evaluate = partial(_substituted, evaluate, sub)
     return blended_targets(ctx.uv, ctx.faces, evaluate, power=0.0) * beta[:, None, None]
+
+
+def ear_substitutes(uv: np.ndarray, halo_faces: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``(n,)`` for each of the patches ``faces (n, 3)`` that is an ear (its three vertices on the
+    outline of ``halo_faces``) the vertex off the outline nearest its uv centroid; -1 elsewhere.
+    ``uv (h, 2)``; vertex ids index it."""
+    he, _, he_edge, count = undirected_edges(halo_faces, len(uv))
+    on = np.zeros(len(uv), bool)
+    on[he[count[he_edge] == 1].ravel()] = True
+    ear = on[faces].all(1)
+    out = np.full(len(faces), -1, np.int64)
+    inside = np.flatnonzero(~on)
+    if ear.any() and inside.size:
+        out[ear] = inside[cKDTree(uv[inside]).query(uv[faces[ear]].mean(1))[1]]
+    return out
+
+
+def _shifted(evaluate: Callable, shift: np.ndarray, vertex: np.ndarray, points: np.ndarray,
+             report: Report | None = None) -> np.ndarray:
+    """``evaluate`` (as in :func:`_substituted`) at ``points + shift`` (both ``(n, 21, 2)``)."""
+    return evaluate(vertex, points + shift, report)
+
+
+def _substituted(evaluate: Callable, sub: np.ndarray, vertex: np.ndarray, points: np.ndarray,
+                 report: Report | None = None) -> np.ndarray:
+    """``evaluate`` (the grouped form of :meth:`~trispline.fit.targets.LocalRBFFit.evaluate`, one row per
+    patch) with the fit of ``sub[f]`` instead of ``vertex[f]`` where ``sub >= 0``."""
+    return evaluate(np.where(sub >= 0, sub, vertex), points, report)
 
 
 @contextmanager

@@ -85,3 +85,37 @@ def test_the_warp_moves_boundary_edges_onto_the_circle_and_leaves_the_rest(disk)
         after = 1 - np.linalg.norm(pts[f, edge] + shift[f, edge], axis=1)
         assert (before > 0).all()
         assert np.abs(after).max() < 0.2 * before.max()
+
+
+def test_an_ear_takes_the_fit_of_the_nearest_vertex_off_the_outline():
+    from trispline.fit.boundary import ear_substitutes
+
+    # a 3 x 3 grid of squares, each split along the same diagonal: two opposite corners are ears
+    g = np.stack(np.meshgrid(np.arange(4.0), np.arange(4.0), indexing="ij"), -1).reshape(-1, 2)
+    idx = np.arange(16).reshape(4, 4)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
+    F = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    sub = ear_substitutes(g, F, F)
+    ears = np.flatnonzero(sub >= 0)
+    assert {tuple(sorted(F[f])) for f in ears} == {(2, 3, 7), (8, 12, 13)}  # at the corners (0, 3) and (3, 0)
+    assert {int(sub[f]) for f in ears} == {6, 9}  # the inner vertices (1, 2) and (2, 1)
+    assert ear_substitutes(g, F, F[sub < 0]).max() == -1
+
+
+def test_ears_from_the_inner_fits_halve_a_rectangles_error(monkeypatch):
+    """The corners of a rectangular domain are ears; their own fits are one-sided: with the nearest inner
+    vertex's fit the error falls (measured on this barrel strip: RMS 3.9e-6 -> 1.3e-6)."""
+    from trispline.fit import boundary, fit_surface
+    from trispline.fit.datasets.analytic import analytic_mesh
+
+    mesh = analytic_mesh("barrel240", 800)
+    errors = []
+    for on in (True, False):
+        monkeypatch.setattr(boundary, "EAR_TARGETS", on)
+        res = fit_surface(mesh.V, mesh.F)
+        bary = np.array([[1 / 3, 1 / 3, 1 / 3], [0.6, 0.2, 0.2], [0.2, 0.6, 0.2], [0.2, 0.2, 0.6]])
+        fi = np.repeat(np.arange(len(res.faces)), len(bary))
+        P = res.surface.evaluate(fi, np.tile(bary, (len(res.faces), 1)))
+        start = np.einsum("nk,fkd->fnd", bary, mesh.params[res.faces]).reshape(-1, 2)
+        errors.append(np.sqrt(np.mean(mesh.surface.distance(P, start) ** 2)))
+    assert errors[0] < 0.5 * errors[1]
