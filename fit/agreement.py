@@ -102,19 +102,20 @@ def log_fade(x: np.ndarray, ok: float, bad: float) -> np.ndarray:
     return np.clip((hi - np.log(np.maximum(x, np.finfo(float).tiny))) / (hi - lo), 0.0, 1.0)
 
 
-def fit_skill(fit) -> np.ndarray:
-    """``(nv,)`` the leave-one-out error of each local fit of ``fit`` (a
-    :class:`~trispline.fit.targets.LocalRBFFit`) over the RMS departure of the same points (the
-    :data:`~trispline.fit.targets.RBF_LOO_POINTS` nearest its vertex, the vertex included) from the
-    fit's linear trend: about 1 or more where the fit interpolates noise, well below 1 where it
-    predicts (see the module docstring)."""
-    X = fit.centres[:, :RBF_LOO_POINTS]  # (nv, k, 2) scaled uv offsets, the vertex first; padding at 0
-    vals = fit.evaluate(np.arange(len(X)), fit.origin[:, None, :] + X * fit.scale[:, None, None])  # the data
-    Y = vals - fit.value[:, None, :] - np.einsum("vki,vid->vkd", X, fit.slope)
+def fit_skill(fit, vertices: np.ndarray | None = None) -> np.ndarray:
+    """``(m,)`` the leave-one-out error of the local fits of ``vertices (m,)`` (default: all) of
+    ``fit`` (a :class:`~trispline.fit.targets.LocalRBFFit`) over the RMS departure of the same
+    points (the :data:`~trispline.fit.targets.RBF_LOO_POINTS` nearest its vertex, the vertex
+    included) from the fit's linear trend: about 1 or more where the fit interpolates noise, well
+    below 1 where it predicts (see the module docstring)."""
+    v = np.arange(len(fit.loo)) if vertices is None else np.asarray(vertices, np.int64)
+    X = fit.centres[v, :RBF_LOO_POINTS]  # (m, k, 2) scaled uv offsets, the vertex first; padding at 0
+    vals = fit.evaluate(v, fit.origin[v, None, :] + X * fit.scale[v, None, None])  # the data there
+    Y = vals - fit.value[v, None, :] - np.einsum("vki,vid->vkd", X, fit.slope[v])
     real = np.abs(X).sum(-1) > 0
     real[:, 0] = True
     relief = np.sqrt(np.where(real[..., None], Y * Y, 0.0).sum((1, 2)) / (real.sum(1) * Y.shape[2]))
-    return fit.loo / np.maximum(relief, np.finfo(float).tiny)
+    return fit.loo[v] / np.maximum(relief, np.finfo(float).tiny)
 
 
 def fit_trust(ctx: TermContext) -> np.ndarray:
@@ -126,8 +127,9 @@ def fit_trust(ctx: TermContext) -> np.ndarray:
     if "fit_trust" not in ctx.memo:
         h = mean_edge_lengths(ctx.V, ctx.halo_faces)
         rough = 1.0 - log_fade(ctx.fit.loo / np.maximum(h, np.finfo(float).tiny), ROUGH_OK, ROUGH_BAD)
-        noise = 1.0 - log_fade(fit_skill(ctx.fit), SKILL_OK, SKILL_BAD)
-        ctx.memo["fit_trust"] = 1.0 - rough * noise
+        some = np.flatnonzero(rough > 0)  # the skill only where the error counts (few vertices, if any)
+        rough[some] *= 1.0 - log_fade(fit_skill(ctx.fit, some), SKILL_OK, SKILL_BAD)
+        ctx.memo["fit_trust"] = 1.0 - rough
     return ctx.memo["fit_trust"]
 
 
