@@ -47,13 +47,16 @@ from .progress import Report
 if TYPE_CHECKING:
     from .energy.context import TermContext
 
-__all__ = ["CURVE_WARP", "EAR_TARGETS", "RAGGED_MISS", "RELATIVE_BEND", "SMOOTH_MISS", "TRUSTED_LOO", "UNTRUSTED_LOO",
-           "bend_reference", "ear_substitutes", "outline_curves", "outline_warp", "trust"]
+__all__ = ["CURVE_WARP", "EAR_TARGETS", "FD_STEP", "RAGGED_MISS", "RELATIVE_BEND", "SMOOTH_MISS", "TRUSTED_LOO",
+           "UNTRUSTED_LOO", "bend_reference", "corner_gradients", "ear_substitutes", "outline_curves", "outline_warp",
+           "trust"]
 
 #: Whether an ear's targets (a patch with all three vertices on the outline: its vertices' local fits
 #: are all one-sided) come from the fit of the nearest vertex off the outline (:func:`ear_substitutes`).
 #: Measured in docs/fit.md, "The boundary": the rectangular analytic domains' corners are ears.
 EAR_TARGETS = True
+#: Step of :func:`corner_gradients`' central differences, in the fit's local length (rounding 1e-12).
+FD_STEP = 1e-4
 #: Whether the boundary patches' targets follow the outline faired as a curve (:func:`outline_warp`)
 #: where the fit made its domain itself (:func:`outline_curves`).
 CURVE_WARP = True
@@ -117,6 +120,34 @@ def ear_substitutes(uv: np.ndarray, halo_faces: np.ndarray, faces: np.ndarray) -
     if ear.any() and inside.size:
         out[ear] = inside[cKDTree(uv[inside]).query(uv[faces[ear]].mean(1))[1]]
     return out
+
+
+def corner_gradients(ctx: TermContext) -> np.ndarray:
+    """``(m, d, 2)`` the tilt targets' gradients at the context's frame vertices: the local fits' own
+    (``ctx.fit.grad``), except at a corner whose only face is an ear (:func:`ear_substitutes`): there
+    the gradient of the ear's substitute fit at the corner (central differences; its own fit is
+    the most one-sided of all), as far as that fit is trusted (:func:`trust`). A hook for :mod:`trispline.fit.energy.tilt` (measured in
+    docs/fit.md, "The boundary")."""
+    fv = ctx.frame_vertices
+    grad = ctx.fit.grad[fv].copy()
+    if not EAR_TARGETS:
+        return grad
+    sub = ear_substitutes(ctx.uv, ctx.halo_faces, ctx.halo_faces)
+    lone = np.bincount(ctx.halo_faces.ravel(), minlength=len(ctx.uv)) == 1
+    by_vertex = np.full(len(ctx.uv), -1, np.int64)
+    ears = np.flatnonzero(sub >= 0)
+    for k in range(3):  # a lone corner's one face
+        by_vertex[ctx.halo_faces[ears, k]] = np.where(lone[ctx.halo_faces[ears, k]], sub[ears], -1)
+    rows = np.flatnonzero(by_vertex[fv] >= 0)
+    if rows.size:
+        v = fv[rows]
+        eps = FD_STEP * ctx.fit.scale[v]
+        pts = ctx.uv[v][:, None, :] + eps[:, None, None] * np.array([[1, 0], [-1, 0], [0, 1], [0, -1]])
+        val = ctx.fit.evaluate(by_vertex[v], pts)  # (k, 4, d)
+        fd = np.stack([val[:, 0] - val[:, 1], val[:, 2] - val[:, 3]], -1) / (2 * eps)[:, None, None]
+        t = trust(ctx)[by_vertex[v]][:, None, None]  # as far as the substitute's fit is trusted
+        grad[rows] = t * fd + (1.0 - t) * grad[rows]
+    return grad
 
 
 def _shifted(evaluate: Callable, shift: np.ndarray, vertex: np.ndarray, points: np.ndarray,
