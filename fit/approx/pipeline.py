@@ -66,10 +66,13 @@ BUDGET_THRESHOLD = 1e-12
 #: ... at most this fraction of the remaining room a round (the last vertices go one round at a time to
 #: the worst faces),
 BUDGET_STEP = 0.5
-#: ... unless the seed's inliers' median deviation is within this many noise estimates (about 1.5x that of
-#: Gaussian noise alone, 0.67: the noise floor is no reason to add a vertex; such a scan is fitted at the
-#: full budget at once).
+#: ... unless the scan is at the noise floor: the seed's inliers' median deviation within this many noise
+#: estimates (about 1.5x that of Gaussian noise alone, 0.67) ...
 BUDGET_FLOOR = 1.0
+#: ... and the next round's median above this fraction of it (more vertices did not help: noise, not a
+#: shape the spline misses; the noise estimate alone is no test, as on clean scans with creases it is the
+#: local quadrics' error). Such a scan is fitted at the whole budget at once.
+BUDGET_GAIN = 0.9
 #: Refinement rounds at most.
 MAX_ROUNDS = 20
 #: Tries of a refinement round's insertion, each with the faces' next candidates (:func:`_grow`).
@@ -337,8 +340,8 @@ def _whole_budget(V: np.ndarray, F: np.ndarray, uv: np.ndarray, opt: _Options, s
     if opt.auto:
         opt = dataclasses.replace(opt, weights=_smoothing(dom, V, opt))
         stage("smoothing")
-    best, history, stop = _refine(V, dom, opt, scale, 1, stage)
-    return dom, opt, best, history, stop
+    best, history, _ = _refine(V, dom, opt, scale, 1, stage)
+    return dom, opt, best, history, "noise floor"
 
 
 def _smoothing(dom: CoarseDomain, V: np.ndarray, opt: _Options) -> FitWeights:
@@ -422,8 +425,8 @@ def _refine(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None
     until it is met. A budget alone: from :data:`BUDGET_SEED` of it, each round half the remaining room
     goes to the faces of largest deviation (the boundary chords' 3D sagitta included,
     :func:`~.refine.outline_gaps`), so the last vertices go a few at a time to the worst places
-    (camelhead at 2%: d>m RMS 3.3e-3 -> 7.8e-4, max 2.6e-2 -> 3.8e-3); a seed at the noise floor
-    (median deviation within :data:`BUDGET_FLOOR` noise estimates) stops it (``"noise floor"``: more
+    (camelhead at 2%: d>m RMS 3.3e-3 -> 7.8e-4, max 2.6e-2 -> 3.8e-3); a scan at the noise floor
+    (:func:`_at_noise_floor`, after the second round) stops it (``"noise floor"``: more
     vertices would follow noise and unflagged outliers, which ``corners="data"`` interpolates).
     """
     best, history, stop = None, [], "rounds"
@@ -439,7 +442,7 @@ def _refine(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None
         stage("deviation", record=record)
         if best is None or state.worst < best.worst:  # with a tolerance, the inliers' maximum deviation
             best = state
-        if not opt.refine and r == 0 and state.inliers["p50"] <= BUDGET_FLOOR * dom.stats.noise:
+        if not opt.refine and r == 1 and _at_noise_floor(history, dom.stats.noise):
             stop = "noise floor"
             break
         if opt.refine and state.max_deviation <= opt.tolerance:
@@ -458,6 +461,13 @@ def _refine(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None
             break
         dom = new
     return best, history, stop
+
+
+def _at_noise_floor(history: list[dict], noise: float) -> bool:
+    """Whether the first two rounds' median deviations say noise: the seed's within :data:`BUDGET_FLOOR`
+    noise estimates and the second's not below :data:`BUDGET_GAIN` of it."""
+    first, second = history[-2]["p50"], history[-1]["p50"]
+    return first <= BUDGET_FLOOR * noise and second > BUDGET_GAIN * first
 
 
 def _final(V: np.ndarray, best: Round, opt: _Options, scale: np.ndarray | None, refined: bool, stage: Callable
