@@ -25,6 +25,18 @@ the fits disagree; as the reference it raised the snail's curvature p99.9 1.9 ->
 costs no bending, whatever its curvature, so nothing pulls at the outline; deviations
 (wiggles between the data vertices) are still faired. With ``local = 0`` (no local targets)
 the bend is the plain thin plate.
+
+Two more things shape the boundary patches' targets (both in the fits' evaluation, so the bend
+reference and the local term's targets agree):
+
+* the outline faired as a curve (:func:`outline_warp`, :mod:`trispline.fit.curves`): the fits are
+  evaluated at domain points moved so that each boundary edge follows a smooth curve through the
+  uv outline, where the fit made its domain itself (:func:`outline_curves`);
+* ears (:func:`ear_substitutes`): a patch with all three vertices on the outline takes the fit of
+  the nearest vertex off the outline.
+
+:func:`corner_gradients` offers the same substitution for the tilt targets of a corner whose only
+face is an ear (measured in docs/fit.md, "Boundary curves faired as curves, ear triangles").
 """
 from __future__ import annotations
 
