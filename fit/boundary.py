@@ -107,11 +107,11 @@ def bend_reference(ctx: TermContext, blended_targets: Callable) -> np.ndarray:
         return np.zeros((1, 1, 1))
     evaluate = ctx.fit.evaluate
     if CURVE_WARP and _CURVES.get() and ctx.faces.shape == ctx.halo_faces.shape:  # the halo's outline is the mesh's
-        shift = outline_warp(ctx.V, ctx.uv, ctx.faces)
+        shift = outline_warp(ctx.V, ctx.uv, ctx.faces, _halo_edges(ctx))
         if shift.any():  # the local term's targets come from the same evaluations (local.shared_targets)
             evaluate = partial(_shifted, evaluate, shift)
     if EAR_TARGETS:
-        sub = ear_substitutes(ctx.uv, ctx.halo_faces, ctx.faces)
+        sub = ear_substitutes(ctx.uv, ctx.halo_faces, ctx.faces, _halo_edges(ctx))
         ears = sub >= 0
         if ears.any():  # an ear's three fits are all one-sided: its nets from the nearest inner vertex's fit
             beta = np.where(ears, trust(ctx)[np.maximum(sub, 0)] * local_trust(ctx), beta)
@@ -119,11 +119,26 @@ def bend_reference(ctx: TermContext, blended_targets: Callable) -> np.ndarray:
     return blended_targets(ctx.uv, ctx.faces, evaluate, power=0.0) * beta[:, None, None]
 
 
-def ear_substitutes(uv: np.ndarray, halo_faces: np.ndarray, faces: np.ndarray) -> np.ndarray:
+def edge_tables(faces: np.ndarray, nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(he (3 nf, 2), he_edge (3 nf,), count (ne,))`` of ``faces (nf, 3)``
+    (:func:`trispline.param.tables.undirected_edges`, in 64 bits)."""
+    he, _, he_edge, count = undirected_edges(np.asarray(faces, np.int64), nv)
+    return he, he_edge, count
+
+
+def _halo_edges(ctx: TermContext) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`edge_tables` of the context's halo, computed once per context."""
+    if "halo_edges" not in ctx.memo:
+        ctx.memo["halo_edges"] = edge_tables(ctx.halo_faces, len(ctx.uv))
+    return ctx.memo["halo_edges"]
+
+
+def ear_substitutes(uv: np.ndarray, halo_faces: np.ndarray, faces: np.ndarray, edges: tuple | None = None
+                    ) -> np.ndarray:
     """``(n,)`` for each of the patches ``faces (n, 3)`` that is an ear (its three vertices on the
     outline of ``halo_faces``) the vertex off the outline nearest its uv centroid; -1 elsewhere.
-    ``uv (h, 2)``; vertex ids index it."""
-    he, _, he_edge, count = undirected_edges(halo_faces, len(uv))
+    ``uv (h, 2)``; vertex ids index it; ``edges``: the :func:`edge_tables` of ``halo_faces``, when known."""
+    he, he_edge, count = edge_tables(halo_faces, len(uv)) if edges is None else edges
     on = np.zeros(len(uv), bool)
     on[he[count[he_edge] == 1].ravel()] = True
     ear = on[faces].all(1)
@@ -144,7 +159,7 @@ def corner_gradients(ctx: TermContext) -> np.ndarray:
     grad = ctx.fit.grad[fv].copy()
     if not EAR_TARGETS:
         return grad
-    sub = ear_substitutes(ctx.uv, ctx.halo_faces, ctx.halo_faces)
+    sub = ear_substitutes(ctx.uv, ctx.halo_faces, ctx.halo_faces, _halo_edges(ctx))
     lone = np.bincount(ctx.halo_faces.ravel(), minlength=len(ctx.uv)) == 1
     by_vertex = np.full(len(ctx.uv), -1, np.int64)
     ears = np.flatnonzero(sub >= 0)
@@ -188,7 +203,7 @@ def outline_curves(on: bool = True) -> Iterator[None]:
         _CURVES.reset(token)
 
 
-def outline_warp(V: np.ndarray, uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
+def outline_warp(V: np.ndarray, uv: np.ndarray, faces: np.ndarray, edges: tuple | None = None) -> np.ndarray:
     """``(nf, 21, 2)`` uv shifts of every patch's domain points that bend its boundary edges onto the
     outline faired as a curve (:func:`trispline.fit.curves.loop_bulges`); zero off the outline.
 
@@ -196,20 +211,22 @@ def outline_warp(V: np.ndarray, uv: np.ndarray, faces: np.ndarray) -> np.ndarray
     ``n (B_320 a + B_230 b)``, ``B_320 = 10 l_i^3 l_j^2``, ``B_230 = 10 l_i^2 l_j^3``, ``n`` the
     edge's left normal: the warp vanishes with its first derivatives on the face's other two
     edges and at its corners, so the warped map is C1 with the unwarped one next to it and the
-    corner frames keep their targets. ``V (nv, 3)``, ``uv (nv, 2)``, ``faces (nf, 3)``.
-    An edge bulges as far as its outline is smooth (:data:`SMOOTH_MISS`).
+    corner frames keep their targets. ``V (nv, 3)``, ``uv (nv, 2)``, ``faces (nf, 3)``; ``edges``: their
+    :func:`edge_tables`, when known. An edge bulges as far as its outline is smooth (:data:`SMOOTH_MISS`).
     """
     nv = len(uv)
-    he, _, he_edge, count = undirected_edges(faces, nv)
+    faces = np.asarray(faces, np.int64)
+    he, he_edge, count = edge_tables(faces, nv) if edges is None else edges
     shift = np.zeros((len(faces), EXPONENTS.shape[0], 2))
-    key = he[:, 0] * nv + he[:, 1]
-    order = np.argsort(key)
+    bnd = np.flatnonzero(count[he_edge] == 1)
+    leaving = np.full(nv, -1, np.int64)
+    leaving[he[bnd, 0]] = bnd  # the boundary half-edge leaving each outline vertex
     lam = EXPONENTS / DEGREE  # (21, 3)
     for loop in boundary_loops(V, faces, he_edge, count):
         a, b, miss = loop_bulges(V[loop], uv[loop])
         q = np.roll(loop, -1)
         w = log_fade(miss, SMOOTH_MISS, RAGGED_MISS)
-        h = order[np.searchsorted(key, loop * nv + q, sorter=order)]  # the half-edge p -> q
+        h = leaving[loop]  # the half-edge p -> q
         f, k = np.divmod(h, 3)  # half-edge 3 f + k runs local k + 1 -> k + 2
         i, j = (k + 1) % 3, (k + 2) % 3
         e = uv[q] - uv[loop]
