@@ -261,8 +261,9 @@ def test_one_step_equals_gauss_newton_iterated_to_convergence(problem):
 
 
 def test_step_compiled_for_memory_equals_the_default_compile(problem):
-    """The step compiled with XLA:CPU's memory-optimised scheduler (``gauss_newton.CPU_COMPILER_OPTIONS``)
-    computes what the default compile computes, bit for bit, in fewer temporaries."""
+    """The step compiled with ``gauss_newton.CPU_COMPILER_OPTIONS`` (XLA:CPU's memory-optimised scheduler,
+    no XNNPACK/YNNPACK dot fusions) computes what the default compile computes, to the dots' rounding,
+    in no more temporaries; the scheduler alone changes no bit."""
     V, space, w = problem
     prob = en.setup_problem(V, space, w)
     factor = SparseCholesky(prob.H_upper, upper=True)
@@ -271,10 +272,14 @@ def test_step_compiled_for_memory_equals_the_default_compile(problem):
     ours, plain = gauss_newton._compile(lowered), lowered.compile()
     args = (jnp.zeros(prob.rhs.shape), prob.args, jnp.asarray(factor.handle, jnp.int64))
     (x, e), (x_ref, e_ref) = ours(*args), plain(*args)
-    np.testing.assert_array_equal(np.asarray(x), np.asarray(x_ref))
-    assert {k: float(v) for k, v in e.items()} == {k: float(v) for k, v in e_ref.items()}
+    x_ref = np.asarray(x_ref)
+    np.testing.assert_allclose(np.asarray(x), x_ref, rtol=0, atol=1e-12 * np.abs(x_ref).max())
+    for k in e_ref:
+        assert float(e[k]) == pytest.approx(float(e_ref[k]), rel=1e-10, abs=1e-300)
     if jax.default_backend() == "cpu":
         assert ours.memory_analysis().temp_size_in_bytes <= plain.memory_analysis().temp_size_in_bytes
+        scheduled = lowered.compile(compiler_options=gauss_newton.CPU_COMPILER_OPTIONS[-1])
+        np.testing.assert_array_equal(np.asarray(scheduled(*args)[0]), x_ref)
 
 
 def test_fit_with_progress_fractions():
