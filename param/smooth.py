@@ -54,8 +54,9 @@ MAX_NEIGHBOURS = 40
 #: analytic surfaces' outlines), a larger move reshapes the outline (the bumps scan with a hole:
 #: a few outline vertices moved 8-13% of an edge: error 5.0e-7 unsmoothed, 1.45e-6; capped 4.6e-7).
 BOUNDARY_MAX_MOVE = 0.03
-#: Rounds of fits, each from the last one's map (more: measured in docs/fit.md, "The boundary": better on 10 of 14 analytic
-#: cases, the monkey saddle at 800 vertices 6x worse; so one).
+#: Rounds of interior fits, each from the last one's map (measured in docs/fit.md, "The boundary":
+#: 3 were more accurate on 22 of 24 analytic cases, up to 1.9x, but gave the camel head 4 patches above
+#: 20x the data's largest curvature; so one).
 PASSES = 1
 #: Rounds of reverting the vertices of folded faces before the map is returned unchanged.
 REVERT_ROUNDS = 4
@@ -203,7 +204,8 @@ def smooth_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, loops: list[np.ndarr
 
     ``loops``: the mesh's boundary loops (e.g. :attr:`ValidatedMesh.boundary_loops`); ``keep``:
     vertex ids that keep their uv (e.g. the harmonic map's outline, on its circle); ``passes``:
-    rounds of fits, each from the last one's map (default :data:`PASSES`). Returns the map and
+    rounds of interior fits, each from the last one's map (the outline's in the first only;
+    default :data:`PASSES`). Returns the map and
     ``info``: ``moved_max`` (largest move over the vertex's mean edge length in uv), ``reverted``
     (vertices that kept their uv because of a fold), ``fallback`` (True when the unchanged map
     was returned).
@@ -212,13 +214,13 @@ def smooth_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, loops: list[np.ndarr
     nbr, h = _neighbourhoods(V, F, rings)
     huv = _uv_edge_length(F, uv)
     new = uv
-    for _ in range(PASSES if passes is None else passes):
+    for k in range(PASSES if passes is None else passes):
         last, new = new, np.empty_like(uv)
         for lo in range(0, nv, CHUNK):
             sl = slice(lo, min(lo + CHUNK, nv))
             new[sl] = _interior(V, last, nbr[sl], h[sl], degree)
-        for loop in loops:  # an outline vertex moved too far from its own uv keeps it
-            b = _boundary(V, last, loop, degree)
+        for loop in loops:  # the outline in the first pass only; a vertex moved too far keeps its uv
+            b = _boundary(V, last, loop, degree) if k == 0 else last[loop]
             far = np.linalg.norm(b - uv[loop], axis=1) > BOUNDARY_MAX_MOVE * huv[loop]
             new[loop] = np.where(far[:, None], uv[loop], b)
         if keep is not None:
