@@ -31,7 +31,8 @@ reference and the local term's targets agree):
 
 * the outline faired as a curve (:func:`outline_warp`, :mod:`trispline.fit.curves`): the fits are
   evaluated at domain points moved so that each boundary edge follows a smooth curve through the
-  uv outline, where the fit made its domain itself (:func:`outline_curves`);
+  uv outline, where the fit made its domain itself (the context's ``target_shift``:
+  :func:`outline_warp` of the whole mesh, so a local re-fair's halo sees the fit's own targets);
 * ears (:func:`ear_substitutes`): a patch with all three vertices on the outline takes the fit of
   the nearest vertex off the outline.
 
@@ -40,9 +41,7 @@ face is an ear (measured in docs/fit.md, "Boundary curves faired as curves, ear 
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from contextvars import ContextVar
+from collections.abc import Callable
 from functools import partial
 from typing import TYPE_CHECKING
 
@@ -60,7 +59,7 @@ if TYPE_CHECKING:
     from .energy.context import TermContext
 
 __all__ = ["CURVE_WARP", "EAR_TARGETS", "FD_STEP", "RAGGED_MISS", "RELATIVE_BEND", "SMOOTH_MISS", "TRUSTED_LOO",
-           "UNTRUSTED_LOO", "bend_reference", "corner_gradients", "ear_substitutes", "outline_curves", "outline_warp",
+           "UNTRUSTED_LOO", "bend_reference", "corner_gradients", "ear_substitutes", "outline_warp",
            "trust"]
 
 #: Whether an ear's targets (a patch with all three vertices on the outline: its vertices' local fits
@@ -70,9 +69,8 @@ EAR_TARGETS = True
 #: Step of :func:`corner_gradients`' central differences, in the fit's local length (rounding 1e-12).
 FD_STEP = 1e-4
 #: Whether the boundary patches' targets follow the outline faired as a curve (:func:`outline_warp`)
-#: where the fit made its domain itself (:func:`outline_curves`).
+#: where the fit made its domain itself (``fit_surface``'s ``curved_outline``).
 CURVE_WARP = True
-_CURVES: ContextVar[bool] = ContextVar("outline_curves", default=False)
 #: An edge's bulge counts fully when its curve passes within this fraction of the edge's length
 #: from its two vertices, not at all from :data:`RAGGED_MISS` on (log-linear between): a ragged
 #: outline is not bent toward a curve it does not follow. Measured (``miss`` of
@@ -106,10 +104,9 @@ def bend_reference(ctx: TermContext, blended_targets: Callable) -> np.ndarray:
     if not beta.any():
         return np.zeros((1, 1, 1))
     evaluate = ctx.fit.evaluate
-    if CURVE_WARP and _CURVES.get() and ctx.faces.shape == ctx.halo_faces.shape:  # the halo's outline is the mesh's
-        shift = outline_warp(ctx.V, ctx.uv, ctx.faces, _halo_edges(ctx))
-        if shift.any():  # the local term's targets come from the same evaluations (local.shared_targets)
-            evaluate = partial(_shifted, evaluate, shift)
+    shift = ctx.target_shift
+    if shift is not None and shift.any():  # the local term's targets come from the same evaluations (local.shared_targets)
+        evaluate = partial(_shifted, evaluate, shift)
     if EAR_TARGETS:
         sub = ear_substitutes(ctx.uv, ctx.halo_faces, ctx.faces, _halo_edges(ctx))
         ears = sub >= 0
@@ -188,19 +185,6 @@ def _substituted(evaluate: Callable, sub: np.ndarray, vertex: np.ndarray, points
     """``evaluate`` (the grouped form of :meth:`~trispline.fit.targets.LocalRBFFit.evaluate`, one row per
     patch) with the fit of ``sub[f]`` instead of ``vertex[f]`` where ``sub >= 0``."""
     return evaluate(np.where(sub >= 0, sub, vertex), points, report)
-
-
-@contextmanager
-def outline_curves(on: bool = True) -> Iterator[None]:
-    """Within: :func:`bend_reference` of a context that covers the whole mesh warps the boundary patches'
-    targets onto the outline faired as a curve (when :data:`CURVE_WARP`). ``fit_surface`` turns it on
-    when it made the domain itself: a user's uv is kept as the surface's parameters (a height field's
-    ``x(u, v) = u`` up to the outline)."""
-    token = _CURVES.set(on)
-    try:
-        yield
-    finally:
-        _CURVES.reset(token)
 
 
 def outline_warp(V: np.ndarray, uv: np.ndarray, faces: np.ndarray, edges: tuple | None = None) -> np.ndarray:

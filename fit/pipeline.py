@@ -31,7 +31,6 @@ from trispline.spline.topology import Triangulation, signed_areas
 from trispline.spline.util.timer import StageTimer
 
 from . import energy as en
-from .boundary import outline_curves
 from .energy.data import DataPoints, as_data_points
 from .errors import FitError
 from .gauss_newton import QuadraticStep, iterate
@@ -66,6 +65,9 @@ class FitResult:
     stats : n_free, n_solved, H_nnz, continuity (the full report), analysis_seconds (the factor's
         analysis, run beside the assembly: :class:`~trispline.fit.solve.PatternAnalysis`) and
         analysis_wait_seconds (how long the factor stage waited for it)
+    curved_outline : whether the boundary patches' targets followed the outline faired as a curve
+        (the fit made its domain: :mod:`trispline.fit.boundary`); the re-fair
+        (:mod:`trispline.fit.refair`) and :func:`~trispline.fit.refair.fairness_energy` need it
     """
 
     surface: SplineSurface
@@ -83,6 +85,7 @@ class FitResult:
     faces: np.ndarray
     weights: FitWeights
     stats: dict = field(default_factory=dict)
+    curved_outline: bool = False
 
 
 def _check_mesh(V, F) -> tuple[np.ndarray, np.ndarray]:
@@ -169,9 +172,9 @@ def fit_surface(
     if dp is not None:
         dp = DataPoints(dp.face, dp.bary, (dp.xyz - centre) / size)
     analysis = PatternAnalysis()  # the factor's analysis runs on the pattern while the terms are set up
-    with outline_curves(parameterization is not None):  # fit.boundary: a user's uv stays the surface's parameters
-        prob = en.setup_problem((V - centre) / size, space, weights, dp, report=stage_reporter(progress, ASSEMBLE),
-                                on_pattern=analysis.start)
+    curved = parameterization is not None  # fit.boundary: a user's uv stays the surface's parameters
+    prob = en.setup_problem((V - centre) / size, space, weights, dp, report=stage_reporter(progress, ASSEMBLE),
+                            on_pattern=analysis.start, curved_outline=curved)
     clock(ASSEMBLE)
     release_free_heap()
     step = QuadraticStep(prob) if solver is None and not prob.nonlinear else None  # compiles meanwhile
@@ -190,7 +193,7 @@ def fit_surface(
             f"the fit did not converge in {steps} Gauss-Newton steps (max_steps={max_steps}); "
             "pass throw=False to inspect the result"
         )
-    return FitResult(**result, timings=clock.timings)
+    return FitResult(**result, timings=clock.timings, curved_outline=curved)
 
 
 def _finish(V: np.ndarray, space: SplineSpace, prob: en.Problem, x: np.ndarray, energies: dict[str, float],

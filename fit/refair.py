@@ -54,19 +54,21 @@ def _report(energies: dict[str, float]) -> dict[str, float]:
     return out
 
 
-def fairness_energy(space: SplineSpace, free: np.ndarray, V: np.ndarray, weights: FitWeights = FitWeights()
-                    ) -> dict[str, float]:
+def fairness_energy(space: SplineSpace, free: np.ndarray, V: np.ndarray, weights: FitWeights = FitWeights(),
+                    *, curved_outline: bool = False) -> dict[str, float]:
     """The quadratic fairness energy of :func:`fit_surface` (bend, tilt, local; data units).
 
     Parameters
     ----------
     space : SplineSpace, free : (n_free, 3), V : (nv, 3) data vertices
+    curved_outline : the fit's own (:attr:`~trispline.fit.pipeline.FitResult.curved_outline`)
 
     Returns
     -------
     dict with ``bend``, ``tilt``, ``local``, ``total``
     """
-    terms = setup_terms(term_context(space, np.asarray(V, float), replace(weights, angle=0.0)))
+    terms = setup_terms(term_context(space, np.asarray(V, float), replace(weights, angle=0.0),
+                                     curved_outline=curved_outline))
     free = np.asarray(free, float)
     frames = free[frame_ids(space, np.arange(space.tri.n_vertices))]
     return _report(term_energies(space.control_points(free), frames, terms))
@@ -109,10 +111,12 @@ class LocalRefairer:
     V : (nv, 3) data vertices (copied; kept in sync by :meth:`move_vertex`)
     weights : FitWeights of the fit (``angle`` must be 0)
     rings : default region size (>= 1)
+    curved_outline : the fit's own (:attr:`~trispline.fit.pipeline.FitResult.curved_outline`): the
+        halo's boundary patches get the fit's targets
     """
 
     def __init__(self, editor: SplineEditor, V: np.ndarray, weights: FitWeights = FitWeights(), *,
-                 rings: int = 2) -> None:
+                 rings: int = 2, curved_outline: bool = False) -> None:
         if not isinstance(weights, FitWeights):
             raise InputError(f"weights must be a FitWeights, got {type(weights).__name__}")
         if weights.angle > 0:
@@ -123,6 +127,7 @@ class LocalRefairer:
         self.editor = editor
         self.V = V
         self.weights = weights
+        self.curved_outline = bool(curved_outline)
         self.rings = self._check_rings(rings)
 
     @classmethod
@@ -132,7 +137,8 @@ class LocalRefairer:
             raise InputError("the fit used extra data points, which local re-fairing does not see; "
                              "refit globally instead")
         ed = SplineEditor.from_fit(result)
-        return cls(ed, result.free[result.space.corner_free], result.weights, rings=rings)
+        return cls(ed, result.free[result.space.corner_free], result.weights, rings=rings,
+                   curved_outline=result.curved_outline)
 
     @staticmethod
     def _check_rings(rings) -> int:
@@ -142,7 +148,8 @@ class LocalRefairer:
 
     def energy(self) -> dict[str, float]:
         """The global fairness energy of the current surface (``O(n)``; for checks)."""
-        return fairness_energy(self.editor.space, self.editor.free, self.V, self.weights)
+        return fairness_energy(self.editor.space, self.editor.free, self.V, self.weights,
+                               curved_outline=self.curved_outline)
 
     def region(self, vertex: int, rings: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(faces, vertices)``: the patches within ``rings`` of ``vertex`` and their vertices."""
@@ -187,7 +194,7 @@ class LocalRefairer:
         faces, frame_vertices, halo = self._support(ids)
         clock("region")
         terms = setup_terms(term_context(space, self.V, self.weights, faces=faces, frame_vertices=frame_vertices,
-                                         halo=halo))
+                                         halo=halo, curved_outline=self.curved_outline))
         clock("targets")
         A, c = ed.patch_matrix(faces, ids)  # ctrl = A x + c
         fids = frame_ids(space, frame_vertices)

@@ -14,6 +14,7 @@ import numpy as np
 
 from trispline.spline.propagation import SplineSpace
 
+from .. import boundary
 from ..progress import Report, silent, span
 from ..targets import LocalRBFFit, local_rbf_fit
 from ..weights import FitWeights
@@ -39,6 +40,8 @@ class TermContext:
     data_points : DataPoints on the patches (face ids into the n patches), or None
     sample_weight : ``n_vertices / domain area`` of the whole triangulation (``1 / h^2`` of the data term)
     report : progress of the terms' setup (:mod:`trispline.fit.progress`; the local targets use it)
+    target_shift : (n, 21, 2) uv shifts of the patches' target points (the outline faired as a curve,
+        :func:`~trispline.fit.boundary.outline_warp` of the whole mesh), or None
     memo : values the terms derive from this context once and share (:func:`~trispline.fit.agreement.local_trust`,
         the local term's targets blended with the bend's reference); each context has its own,
         ``dataclasses.replace`` included
@@ -58,6 +61,7 @@ class TermContext:
     data_points: DataPoints | None
     sample_weight: float
     report: Report = silent
+    target_shift: np.ndarray | None = None
     memo: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
 
@@ -73,7 +77,8 @@ def frame_ids(space: SplineSpace, vertices: np.ndarray) -> np.ndarray:
 
 def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, faces: np.ndarray | None = None,
                  frame_vertices: np.ndarray | None = None, halo: np.ndarray | None = None,
-                 data_points: DataPoints | None = None, report: Report | None = None) -> TermContext:
+                 data_points: DataPoints | None = None, report: Report | None = None,
+                 curved_outline: bool = False) -> TermContext:
     """The context of patches ``faces`` and the frames of ``frame_vertices`` (default: all).
 
     Parameters
@@ -83,6 +88,9 @@ def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, face
     halo : (nh,) faces whose data the local fits see; it must hold every face around the
         frame vertices and the patches' vertices (default: all faces)
     report : progress of the local fits (its first 60%) and of the terms' setup (the rest)
+    curved_outline : the boundary patches' targets follow the outline faired as a curve
+        (:func:`~trispline.fit.boundary.outline_warp`, computed on the whole mesh, so that a halo's
+        patches get exactly the whole fit's targets)
     """
     tri = space.tri
     if halo is None:
@@ -102,4 +110,6 @@ def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, face
                           report=span(report, 0.0, 0.6)),
         frame_vertices=renumber(fv), frame_scale=space.frame_scale[fv],
         vertex_area=vertex_areas(hfaces, harea, hv.size)[renumber(fv)], data_points=data_points,
-        sample_weight=tri.n_vertices / float(tri.areas.sum()), report=span(report, 0.6, 1.0))
+        sample_weight=tri.n_vertices / float(tri.areas.sum()), report=span(report, 0.6, 1.0),
+        target_shift=boundary.outline_warp(V, tri.uv, tri.faces)[faces] if curved_outline and boundary.CURVE_WARP
+        else None)

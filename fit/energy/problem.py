@@ -70,13 +70,14 @@ class Problem:
 
 def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
                   data_points: DataPoints | None = None, report: Report | None = None,
-                  on_pattern: Callable[[sp.csr_array], None] | None = None) -> Problem:
+                  on_pattern: Callable[[sp.csr_array], None] | None = None, curved_outline: bool = False) -> Problem:
     """Targets, residual arrays and normal equations for data vertices ``V (nv, 3)``.
 
     ``report``: progress (:mod:`trispline.fit.progress`): the local fits and targets take
     about 70% of the time, the normal equations most of the rest. ``on_pattern``: called
     with the pattern of :attr:`Problem.H_upper` (:func:`~.normal.upper_pattern`) before the
     terms are set up (the factorisation's analysis starts on it: :class:`~trispline.fit.solve.PatternAnalysis`).
+    ``curved_outline``: as in :func:`~.context.term_context`.
     """
     is_fixed = np.zeros(space.n_free, bool)
     is_fixed[space.corner_free] = True
@@ -91,7 +92,8 @@ def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
     A = M_r[np.asarray(space.point_index).ravel()]  # (21 F, k) patch points per unknown
     if on_pattern is not None:
         on_pattern(upper_pattern(A))
-    ctx = term_context(space, V, weights, data_points=data_points, report=span(report, 0.0, 0.7))
+    ctx = term_context(space, V, weights, data_points=data_points, report=span(report, 0.0, 0.7),
+                       curved_outline=curved_outline)
     terms = setup_terms(ctx)
     frame_pos = pos[frame_ids(space, ctx.frame_vertices)]
     parts = normal_parts(terms, space.tri.n_faces, frame_pos.size)

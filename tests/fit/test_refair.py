@@ -173,3 +173,36 @@ def test_validation(fitted):
     fake = SimpleNamespace(energies={"data": 1.0}, space=r.space, free=r.free, weights=r.weights)
     with pytest.raises(InputError, match="data points"):
         LocalRefairer.from_fit(fake)
+
+
+@pytest.fixture(scope="module")
+def fitted_on_its_own_domain():
+    """A default fit (the fit makes the domain: its outline is faired as a curve)."""
+    from trispline.fit.datasets.synthetic import synthetic_scan
+
+    V, f = synthetic_scan(400, noise=0.0)
+    return SimpleNamespace(V=V, result=fit_surface(V, f))
+
+
+def test_a_fit_on_its_own_domain_curves_its_outline_and_a_users_uv_does_not(fitted, fitted_on_its_own_domain):
+    assert fitted_on_its_own_domain.result.curved_outline and not fitted.result.curved_outline
+
+
+def test_the_energy_of_a_curved_outline_fit_matches_its_report(fitted_on_its_own_domain):
+    r = fitted_on_its_own_domain.result
+    e = fairness_energy(r.space, r.free, fitted_on_its_own_domain.V, r.weights, curved_outline=True)
+    for term in ("bend", "tilt", "local"):
+        np.testing.assert_allclose(e[term], r.energies[term], rtol=1e-6, err_msg=term)
+
+
+def test_refair_at_the_outline_of_a_curved_outline_fit_changes_nothing(fitted_on_its_own_domain):
+    """The halo's boundary patches get the whole fit's targets (the warp of the whole outline)."""
+    r = fitted_on_its_own_domain.result
+    outline = np.flatnonzero(r.space.tri.boundary_vertex_mask)
+    rf = LocalRefairer.from_fit(r, rings=2)
+    scale = np.ptp(fitted_on_its_own_domain.V, axis=0).max()
+    for v in outline[:: max(1, outline.size // 4)]:
+        before = rf.editor.free.copy()
+        res = rf.refair(int(v))
+        assert np.abs(rf.editor.free - before).max() < 1e-9 * scale
+        assert res.energy_after["total"] <= res.energy_before["total"] * (1 + 1e-10)
