@@ -42,7 +42,8 @@ def add_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--tolerance-rel", type=positive_float, metavar="R",
                    help="the same as a fraction of the bounding-box diagonal, e.g. 1e-3 (default none)")
     g.add_argument("--vertices", type=positive_int, metavar="N",
-                   help="vertex budget (default 10%% of the scan with a tolerance; alone: fit with at most N vertices)")
+                   help="vertex budget (default 10%% of the scan with a tolerance; alone: at most N vertices, "
+                        "spent where the deviation is largest)")
     g.add_argument("--corners", choices=("data", "fit"), default=None,
                    help="data (default): corner points interpolate their scan vertices; fit: they move too "
                         "(better on noisy scans)")
