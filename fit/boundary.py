@@ -210,6 +210,7 @@ def outline_warp(V: np.ndarray, uv: np.ndarray, faces: np.ndarray, edges: tuple 
     leaving = np.full(nv, -1, np.int64)
     leaving[he[bnd, 0]] = bnd  # the boundary half-edge leaving each outline vertex
     lam = EXPONENTS / DEGREE  # (21, 3)
+    touched = [np.zeros(0, np.int64)]
     for loop in boundary_loops(V, faces, he_edge, count):
         a, b, miss = loop_bulges(V[loop], uv[loop])
         q = np.roll(loop, -1)
@@ -221,16 +222,19 @@ def outline_warp(V: np.ndarray, uv: np.ndarray, faces: np.ndarray, edges: tuple 
         nrm = np.stack([-e[:, 1], e[:, 0]], 1) / np.linalg.norm(e, axis=1)[:, None]
         bump = bump_bernstein(lam[:, i].T, lam[:, j].T) @ np.stack([a, b], 1)[:, :, None]  # (m, 21, 1)
         np.add.at(shift, f, (w[:, None, None] * bump) * nrm[:, None, :])
-    return shift * _warp_cap(uv, faces, shift)[:, None, None]
+        touched.append(f)
+    rows = np.unique(np.concatenate(touched))
+    shift[rows] *= _warp_cap(uv, faces[rows], shift[rows])[:, None, None]
+    return shift
 
 
 def _warp_cap(uv: np.ndarray, faces: np.ndarray, shift: np.ndarray) -> np.ndarray:
-    """``(nf,)`` factors that keep each face's largest shift within :data:`WARP_MAX` of its smallest
+    """``(m,)`` factors that keep each face's largest shift within :data:`WARP_MAX` of its smallest
     uv height: a curve fitted along a short, zigzag hole (many small holes, most vertices on an
     outline) bulges its edges across their faces, and the fits evaluated there spiked (|H| 6e5x the
     data's on a grid with 10% of its faces missing)."""
     mag = np.linalg.norm(shift, axis=2).max(1)
-    p = uv[faces]  # (nf, 3, 2)
+    p = uv[faces]  # (m, 3, 2)
     e = np.roll(p, -1, 1) - p
     area2 = np.abs(e[:, 0, 0] * e[:, 1, 1] - e[:, 0, 1] * e[:, 1, 0])
     height = area2 / np.linalg.norm(e, axis=2).max(1)
