@@ -40,6 +40,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
+from trispline.param import face_aspects
 from trispline.spline.topology import mean_edge_lengths
 
 from .targets import RBF_LOO_POINTS
@@ -74,13 +75,11 @@ SKILL_BAD = 0.6
 #: (4, 3) barycentric points where the three fits are compared: the centroid and the edge midpoints.
 PROBES = np.array([[1 / 3, 1 / 3, 1 / 3], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5]])
 
-def _thinness(P: np.ndarray) -> np.ndarray:
-    """``(n,)`` >= 1: the longest edge of each triangle ``P (n, 3, k)`` over its height onto that edge,
-    relative to an equilateral triangle's (1 there, ~100 for a sliver of aspect 200)."""
-    L2 = np.stack([((P[:, (k + 1) % 3] - P[:, k]) ** 2).sum(1) for k in range(3)], 1).max(1)
-    a, b = P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]
-    dbl = np.sqrt(np.maximum((a * a).sum(1) * (b * b).sum(1) - (a * b).sum(1) ** 2, 0.0))  # twice the area
-    return np.maximum(np.sqrt(3.0) / 2.0 * L2 / np.maximum(dbl, np.finfo(float).tiny), 1.0)
+def _thinness(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``(n,)`` >= 1: the aspect (:func:`trispline.param.face_aspects`) of each triangle ``faces (n, 3)``
+    over ``points (nv, 2 or 3)`` relative to an equilateral triangle's (1 there, ~100 for a sliver of
+    aspect 200)."""
+    return np.maximum(np.sqrt(3.0) / 2.0 * face_aspects(points, faces), 1.0)
 
 
 def disagreement(ctx: TermContext) -> np.ndarray:
@@ -142,7 +141,7 @@ def local_trust(ctx: TermContext) -> np.ndarray:
     """``(n,)`` in [0, 1]: the weight of each patch's local targets (see the module docstring): their
     agreement, and the least :func:`fit_trust` of its three vertices; computed once per context."""
     if "trust" not in ctx.memo:  # the local and bend terms share it
-        thin = np.maximum(_thinness(ctx.uv[ctx.faces]) / THIN_OK, 1.0)
+        thin = np.maximum(_thinness(ctx.uv, ctx.faces) / THIN_OK, 1.0)
         agree = log_fade(disagreement(ctx) * thin ** THIN_POWER, AGREE_OK, AGREE_BAD)
         ctx.memo["trust"] = agree * fit_trust(ctx)[ctx.faces].min(1)
     return ctx.memo["trust"]
@@ -159,4 +158,4 @@ def sliver_bend(ctx: TermContext) -> np.ndarray:
     """
     if ctx.fit is None or not len(ctx.faces):
         return np.ones(len(ctx.faces))
-    return np.clip(_thinness(ctx.uv[ctx.faces]) / THIN_OK, 1.0, SLIVER_BEND_MAX)
+    return np.clip(_thinness(ctx.uv, ctx.faces) / THIN_OK, 1.0, SLIVER_BEND_MAX)

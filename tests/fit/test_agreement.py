@@ -72,18 +72,19 @@ def test_the_trust_scales_the_local_weights():
 
 
 def test_thinness_is_one_on_equilateral_triangles_and_grows_like_the_aspect():
-    eq = np.array([[[0, 0], [1, 0], [0.5, np.sqrt(3) / 2]]])
-    sliver = np.array([[[0, 0], [1, 0], [0.5, 0.01]]])
-    np.testing.assert_allclose(agreement._thinness(eq), 1.0)
-    np.testing.assert_allclose(agreement._thinness(sliver), np.sqrt(3) / 2 / 0.01)
-    lifted = np.concatenate([sliver, np.zeros((1, 3, 1))], 2)  # the same in 3D
-    np.testing.assert_allclose(agreement._thinness(lifted), agreement._thinness(sliver))
+    one = np.array([[0, 1, 2]])
+    eq = np.array([[0, 0], [1, 0], [0.5, np.sqrt(3) / 2]])
+    sliver = np.array([[0, 0], [1, 0], [0.5, 0.01]])
+    np.testing.assert_allclose(agreement._thinness(eq, one), 1.0)
+    np.testing.assert_allclose(agreement._thinness(sliver, one), np.sqrt(3) / 2 / 0.01)
+    lifted = np.column_stack([sliver, np.zeros(3)])  # the same in 3D
+    np.testing.assert_allclose(agreement._thinness(lifted, one), agreement._thinness(sliver, one))
 
 
 def test_sliver_bend_is_capped_and_off_without_local_fits():
     ctx = _context()
     np.testing.assert_array_equal(agreement.sliver_bend(ctx), np.maximum(
-        np.minimum(agreement._thinness(ctx.uv[ctx.faces]) / agreement.THIN_OK, agreement.SLIVER_BEND_MAX), 1.0))
+        np.minimum(agreement._thinness(ctx.uv, ctx.faces) / agreement.THIN_OK, agreement.SLIVER_BEND_MAX), 1.0))
     thin = dataclasses.replace(ctx, uv=ctx.uv * np.array([1.0, 1e-4]))  # every patch a sliver
     np.testing.assert_array_equal(agreement.sliver_bend(thin), agreement.SLIVER_BEND_MAX)
     np.testing.assert_array_equal(agreement.sliver_bend(dataclasses.replace(ctx, fit=None)), 1.0)
