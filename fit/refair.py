@@ -38,6 +38,7 @@ from trispline.spline.index import NCTRL
 from trispline.spline.propagation import KIND_CORNER, SplineSpace
 from trispline.spline.util.timer import StageTimer
 
+from . import targets
 from .energy import frame_ids, normal_equations, normal_parts, setup_terms, term_context, term_energies
 from .weights import FitWeights
 
@@ -223,7 +224,8 @@ class LocalRefairer:
         verts = np.unique(space.tri.faces[faces])
         frame_vertices = verts[np.isin(space.frame_free[verts, 0], ids)]
         halo = ed.vertex_faces(verts)
-        for _ in range(self.weights.fit_rings - 1):
+        wider = targets.OUTLINE_RING and not self.curved_outline  # an outline vertex's fit: a ring more
+        for _ in range(self.weights.fit_rings - 1 + int(wider)):
             halo = ed.vertex_faces(np.unique(space.tri.faces[halo]))
         return faces, frame_vertices, halo
 

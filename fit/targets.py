@@ -24,6 +24,12 @@ from .progress import Report, map_reporting
 
 #: Neighbourhoods are truncated to this many nearest vertices.
 MAX_NEIGHBOURS = 32
+#: Whether a vertex on the outline takes one ring more than the others (issue 17): its k-ring is
+#: about half an inner vertex's, one-sided, and often too small for the cubic kernel's polynomial
+#: (20 points), so its fit fell back to lower degree. Measured (true uv, 800 vertices): the
+#: outline vertices' gradient error 3.2e-4 -> 1.4e-4 (cap), 6.6e-4 -> 2e-15 (monkey saddle, a
+#: cubic), 1.1e-3 -> 5.5e-4 (torus); see docs/fit.md, "The boundary".
+OUTLINE_RING = True
 
 
 def area_weighted_normals(V: np.ndarray, F: np.ndarray) -> np.ndarray:
@@ -64,10 +70,24 @@ def vertex_rings(faces: np.ndarray, nv: int, rings: int = 2) -> sp.csr_matrix:
     return R.tocsr()
 
 
+def outline_vertices(faces: np.ndarray, nv: int) -> np.ndarray:
+    """``(nv,)`` bool: the vertices on a boundary edge (an edge of one face) of ``faces (nf, 3)``."""
+    F = np.asarray(faces, np.int64)
+    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    key, cnt = np.unique(e[:, 0] * nv + e[:, 1], return_counts=True)
+    on = np.zeros(nv, bool)
+    one = key[cnt == 1]
+    on[one // nv] = True
+    on[one % nv] = True
+    return on
+
+
 def padded_neighbours(
-    uv: np.ndarray, faces: np.ndarray, rings: int = 2, max_neighbours: int = MAX_NEIGHBOURS
+    uv: np.ndarray, faces: np.ndarray, rings: int = 2, max_neighbours: int = MAX_NEIGHBOURS,
+    wider: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Padded k-ring neighbour lists, nearest first in uv.
+    """Padded k-ring neighbour lists, nearest first in uv; the vertices of ``wider`` (``(nv,)`` bool)
+    take ``rings + 1`` rings.
 
     Returns
     -------
@@ -77,6 +97,11 @@ def padded_neighbours(
     uv = np.asarray(uv, float)
     nv = uv.shape[0]
     R = vertex_rings(faces, nv, rings)
+    if wider is not None and wider.any():
+        w = wider.astype(np.int8)[:, None]
+        R = sp.csr_matrix(R.multiply(1 - w) + vertex_rings(faces, nv, rings + 1).multiply(w))
+        R.eliminate_zeros()
+        R.sort_indices()
     degree = np.diff(R.indptr)
     row = np.repeat(np.arange(nv), degree)
     slot = np.arange(row.size) - R.indptr[row]  # CSR order within the row: the tie-break
@@ -357,6 +382,7 @@ def local_rbf_fit(
     max_degree: int = 3,
     max_neighbours: int = MAX_NEIGHBOURS,
     loo_points: int = RBF_LOO_POINTS,
+    outline_ring: bool | None = None,
     report: Report | None = None,
 ) -> LocalRBFFit:
     """Polyharmonic spline interpolant of each vertex's k-ring data, kernel chosen by cross-validation.
@@ -375,6 +401,8 @@ def local_rbf_fit(
     uv : (nv, 2), values : (nv, d) or (nv,), faces : (nf, 3)
     rings : neighbourhood size in edges
     max_degree : 2 (kernels r^3, r^5) or 3 (also r^7)
+    outline_ring : the vertices on the outline of ``faces`` take ``rings + 1`` rings (default
+        :data:`OUTLINE_RING`)
     report : progress as chunks of vertices finish (:mod:`trispline.fit.progress`)
 
     Returns
@@ -396,7 +424,8 @@ def local_rbf_fit(
     if vals.ndim == 1:
         vals = vals[:, None]
     nv, d = vals.shape
-    nbr, count = padded_neighbours(uv, faces, rings, max_neighbours)
+    wider = outline_vertices(faces, nv) if (OUTLINE_RING if outline_ring is None else outline_ring) else None
+    nbr, count = padded_neighbours(uv, faces, rings, max_neighbours, wider)
     scale = _local_scale(uv, faces, nv)
     valid = np.concatenate([np.ones((nv, 1), bool), nbr >= 0], axis=1)  # the vertex first
     nb = np.concatenate([np.arange(nv)[:, None], np.where(nbr >= 0, nbr, 0)], axis=1)

@@ -14,7 +14,7 @@ import numpy as np
 
 from trispline.spline.propagation import SplineSpace
 
-from .. import boundary
+from .. import boundary, targets
 from ..progress import Report, silent, span
 from ..targets import LocalRBFFit, local_rbf_fit
 from ..weights import FitWeights
@@ -90,7 +90,8 @@ def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, face
     report : progress of the local fits (its first 60%) and of the terms' setup (the rest)
     curved_outline : the boundary patches' targets follow the outline faired as a curve
         (:func:`~trispline.fit.boundary.outline_warp`, computed on the whole mesh, so that a halo's
-        patches get exactly the whole fit's targets)
+        patches get exactly the whole fit's targets); where it is False (the uv were given) the
+        outline vertices' local fits take a ring more (:data:`~trispline.fit.targets.OUTLINE_RING`)
     """
     tri = space.tri
     if halo is None:
@@ -107,7 +108,7 @@ def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, face
         weights=w, areas=tri.areas[faces], bary_gradients=tri.bary_gradients[faces],
         faces=renumber(tri.faces[faces]), uv=tri.uv[hv], V=V[hv], halo_faces=hfaces,
         fit=local_rbf_fit(tri.uv[hv], V[hv], hfaces, max_degree=w.fit_degree, rings=w.fit_rings,
-                          report=span(report, 0.0, 0.6)),
+                          outline_ring=targets.OUTLINE_RING and not curved_outline, report=span(report, 0.0, 0.6)),
         frame_vertices=renumber(fv), frame_scale=space.frame_scale[fv],
         vertex_area=vertex_areas(hfaces, harea, hv.size)[renumber(fv)], data_points=data_points,
         sample_weight=tri.n_vertices / float(tri.areas.sum()), report=span(report, 0.6, 1.0),

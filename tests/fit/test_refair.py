@@ -206,3 +206,21 @@ def test_refair_at_the_outline_of_a_curved_outline_fit_changes_nothing(fitted_on
         res = rf.refair(int(v))
         assert np.abs(rf.editor.free - before).max() < 1e-9 * scale
         assert res.energy_after["total"] <= res.energy_before["total"] * (1 + 1e-10)
+
+
+@pytest.mark.parametrize("wider", [True, False])
+def test_refair_at_the_outline_of_a_users_uv_fit_changes_nothing(fitted, wider, monkeypatch):
+    """The halo holds a ring more where the outline vertices' local fits take one
+    (:data:`trispline.fit.targets.OUTLINE_RING`): their fits, and so the targets, are the global ones."""
+    from trispline.fit import targets
+
+    monkeypatch.setattr(targets, "OUTLINE_RING", wider)
+    r = fit_surface(fitted.V, fitted.f, uv=fitted.uv)
+    outline = np.flatnonzero(r.space.tri.boundary_vertex_mask)
+    rf = LocalRefairer.from_fit(r, rings=2)
+    scale = np.ptp(fitted.V, axis=0).max()
+    for v in outline[:: max(1, outline.size // 4)]:
+        before = rf.editor.free.copy()
+        res = rf.refair(int(v))
+        assert np.abs(rf.editor.free - before).max() < 1e-9 * scale
+        assert res.energy_after["total"] <= res.energy_before["total"] * (1 + 1e-10)

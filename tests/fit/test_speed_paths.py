@@ -31,7 +31,8 @@ from trispline.fit.pipeline import fit_surface  # noqa: E402
 from trispline.fit.progress import accepts_fraction, map_reporting, span  # noqa: E402
 from trispline.fit.solve import SparseCholesky, estimate_factor_bytes  # noqa: E402
 from trispline.fit.stages import ASSEMBLE, FIT_STAGES  # noqa: E402
-from trispline.fit.targets import RBF_KERNELS, _poly3, local_rbf_fit, padded_neighbours, vertex_rings  # noqa: E402
+from trispline.fit.targets import (RBF_KERNELS, _poly3, local_rbf_fit, outline_vertices,  # noqa: E402
+                                    padded_neighbours, vertex_rings)
 from trispline.fit.weights import FitWeights  # noqa: E402
 from trispline.spline.errors import InputError  # noqa: E402
 from trispline.spline.propagation import build_space  # noqa: E402
@@ -153,10 +154,13 @@ def test_factor_analysed_on_the_pattern_equals_a_plain_one(backend, monkeypatch)
 
 
 # ---------------------------------------------------------------- local fits
-def _lexsorted_neighbours(uv, faces, rings, max_neighbours):
-    """The neighbour lists by one lexicographic sort of (vertex, distance): the plain definition."""
+def _lexsorted_neighbours(uv, faces, rings, max_neighbours, wider=None):
+    """The neighbour lists by one lexicographic sort of (vertex, distance): the plain definition
+    (``wider``: vertices with a ring more, rows of the dense ``rings + 1`` table)."""
     nv = uv.shape[0]
     R = vertex_rings(faces, nv, rings)
+    if wider is not None:
+        R = sp.csr_matrix(np.where(wider[:, None], vertex_rings(faces, nv, rings + 1).toarray(), R.toarray()))
     row = np.repeat(np.arange(nv), np.diff(R.indptr))
     col = R.indices.astype(np.int64)
     order = np.lexsort((np.linalg.norm(uv[col] - uv[row], axis=1), row))
@@ -178,6 +182,12 @@ def test_neighbour_order_equals_a_lexicographic_sort(rings, most):
         ref_nbr, ref_count = _lexsorted_neighbours(uv, F, rings, most)
         np.testing.assert_array_equal(nbr, ref_nbr)
         np.testing.assert_array_equal(count, ref_count)
+        on = outline_vertices(F, len(uv))  # the outline's vertices with a ring more (targets.OUTLINE_RING)
+        nbr, count = padded_neighbours(uv, F, rings, most, on)
+        ref_nbr, ref_count = _lexsorted_neighbours(uv, F, rings, most, on)
+        np.testing.assert_array_equal(nbr, ref_nbr)
+        np.testing.assert_array_equal(count, ref_count)
+        assert (count[on] >= padded_neighbours(uv, F, rings, most)[1][on]).all()
 
 
 def _vertex_fit(X, Y, valid, p, q):
@@ -203,7 +213,7 @@ def test_local_fits_equal_a_per_vertex_loop(problem):
     tri = space.tri
     fit = local_rbf_fit(tri.uv, V, tri.faces)
     K = fit.centres.shape[1]
-    nbr, _ = padded_neighbours(tri.uv, tri.faces, 3)
+    nbr, _ = padded_neighbours(tri.uv, tri.faces, 3, wider=outline_vertices(tri.faces, tri.n_vertices))
     rng = np.random.default_rng(5)
     for v in range(tri.n_vertices):
         valid = np.concatenate([[True], nbr[v] >= 0])[:K]
