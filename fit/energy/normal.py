@@ -31,7 +31,7 @@ from trispline.spline.util.sparse import compact
 from ..progress import Report, map_reporting, silent, span
 from ..solve import symmetric_from_upper
 
-__all__ = ["NormalParts", "normal_equations", "upper_pattern"]
+__all__ = ["NormalParts", "normal_equations", "patch_unknowns", "upper_pattern"]
 
 #: Patches per chunk of the dense products (memory: chunk * 21 * 21 floats per block array).
 PATCH_CHUNK = 2048
@@ -60,7 +60,7 @@ class NormalParts:
                    np.zeros(n_frames), np.zeros((n_frames, d)))
 
 
-def _patch_unknowns(A: sp.csr_array) -> sp.csr_array:
+def patch_unknowns(A: sp.csr_array) -> sp.csr_array:
     """``(n, k)`` CSR incidence of the ``n`` patches and their unknowns (sorted columns, values: counts)
     from ``A (21 n, k)`` with sorted indices; ``A`` stays as it is (its index arrays are copied)."""
     n = A.shape[0] // NCTRL
@@ -75,7 +75,7 @@ def _patch_upper(A: sp.csr_array, B: sp.csr_array, blocks: np.ndarray, lo: int, 
     ``lo:hi`` into ``out = (rows, cols, vals)`` from ``start`` on (the chunks' entries follow each other).
 
     ``A_f`` (rows ``21 f .. 21 f + 20`` of ``A``) is made dense over the patch's own sorted
-    unknowns ``U_f`` (row ``f`` of the incidence ``B``, :func:`_patch_unknowns`); since ``U_f`` is
+    unknowns ``U_f`` (row ``f`` of the incidence ``B``, :func:`patch_unknowns`); since ``U_f`` is
     sorted, local ``i <= j`` is global ``row <= col``.
     """
     m, k = hi - lo, A.shape[1]
@@ -103,14 +103,15 @@ def _patch_upper(A: sp.csr_array, B: sp.csr_array, blocks: np.ndarray, lo: int, 
 
 
 def _patch_entries(A: sp.csr_array, blocks: np.ndarray, frame_pos: np.ndarray, frame_weight: np.ndarray,
-                   report: Report | None) -> tuple[np.ndarray, ...]:
+                   report: Report | None, incidence: sp.csr_array | None = None) -> tuple[np.ndarray, ...]:
     """COO ``(rows, cols, vals)`` of the patches' upper-triangle entries, then the frames' diagonal.
 
     The chunks write in place into arrays sized from the patches' unknowns (no pieces to
-    concatenate: 0.2 CPU s and 270 MB less at 100k faces).
+    concatenate: 0.2 CPU s and 270 MB less at 100k faces). ``incidence``: :func:`patch_unknowns`
+    of ``A`` where the caller has it.
     """
     n, k = blocks.shape[0], A.shape[1]
-    B = _patch_unknowns(A)
+    B = patch_unknowns(A) if incidence is None else incidence
     u = np.diff(B.indptr)
     offset = np.zeros(n + 1, np.int64)
     np.cumsum(u * (u + 1) // 2, out=offset[1:])  # each patch's pairs i <= j of its unknowns
@@ -127,11 +128,11 @@ def _patch_entries(A: sp.csr_array, blocks: np.ndarray, frame_pos: np.ndarray, f
 
 
 def _upper_matrix(A: sp.csr_array, blocks: np.ndarray, frame_pos: np.ndarray, frame_weight: np.ndarray,
-                  report: Report | None = None) -> sp.csr_array:
+                  report: Report | None = None, incidence: sp.csr_array | None = None) -> sp.csr_array:
     """``(k, k)`` CSR upper triangle (diagonal included) of ``A^T blkdiag(blocks) A + diag_frames``."""
     k = A.shape[1]
     rows, cols, vals = _patch_entries(A, blocks, np.asarray(frame_pos), np.asarray(frame_weight, float),
-                                      span(report, 0.0, 0.6))
+                                      span(report, 0.0, 0.6), incidence)
     U = sp.csr_array((vals, (rows, cols)), shape=(k, k))
     del rows, cols, vals
     U.sum_duplicates()
@@ -140,7 +141,7 @@ def _upper_matrix(A: sp.csr_array, blocks: np.ndarray, frame_pos: np.ndarray, fr
     return U
 
 
-def upper_pattern(A: sp.csr_array) -> sp.csr_array:
+def upper_pattern(A: sp.csr_array, incidence: sp.csr_array | None = None) -> sp.csr_array:
     """``(k, k)`` CSR pattern (values: shared-patch counts) of the upper triangle :func:`normal_equations`
     returns, from ``A (21 n, k)`` (sorted indices) alone: every two unknowns of one patch couple (the
     frame points' diagonal lies inside). Known before any term is set up
@@ -148,9 +149,9 @@ def upper_pattern(A: sp.csr_array) -> sp.csr_array:
 
     The product ``S = B^T B`` of the patch incidence has unsorted rows; its lower triangle's CSC is
     the upper triangle's CSR with sorted columns (a counting sort: 3x faster than ``scipy.sparse.triu``
-    and a sort of the rows).
+    and a sort of the rows). ``incidence``: :func:`patch_unknowns` of ``A`` where the caller has it.
     """
-    B = _patch_unknowns(A)
+    B = patch_unknowns(A) if incidence is None else incidence
     S = B.T @ B
     k = S.shape[0]
     row = np.repeat(np.arange(k, dtype=S.indices.dtype), np.diff(S.indptr))
@@ -162,8 +163,8 @@ def upper_pattern(A: sp.csr_array) -> sp.csr_array:
 
 
 def normal_equations(A: sp.sparray | sp.spmatrix, c: np.ndarray, frame_pos: np.ndarray,
-                     parts: NormalParts, *, upper: bool = False,
-                     report: Report | None = None) -> tuple[sp.csr_array, np.ndarray]:
+                     parts: NormalParts, *, upper: bool = False, report: Report | None = None,
+                     incidence: sp.csr_array | None = None) -> tuple[sp.csr_array, np.ndarray]:
     """``H (k, k)`` and ``rhs (k, d)`` of the linear terms (see the module docstring).
 
     Parameters
@@ -175,6 +176,8 @@ def normal_equations(A: sp.sparray | sp.spmatrix, c: np.ndarray, frame_pos: np.n
     upper : return only the upper triangle of ``H`` (diagonal included): all a
         symmetric factorisation reads, at half the memory
     report : progress as chunks of patches finish (:mod:`trispline.fit.progress`)
+    incidence : (n, k) :func:`patch_unknowns` of ``A`` (sorted indices), where the caller made it
+        already (:func:`upper_pattern` needs it too); else made here
 
     Returns
     -------
@@ -183,7 +186,7 @@ def normal_equations(A: sp.sparray | sp.spmatrix, c: np.ndarray, frame_pos: np.n
     A = sp.csr_array(A)
     A.sort_indices()
     n, d = parts.blocks.shape[0], parts.patch_rhs.shape[2]
-    U = _upper_matrix(A, parts.blocks, frame_pos, parts.frame_weight, report)
+    U = _upper_matrix(A, parts.blocks, frame_pos, parts.frame_weight, report, incidence)
     r = parts.patch_rhs - np.matmul(parts.blocks, np.asarray(c).reshape(n, NCTRL, d))
     rhs = np.asarray(A.T @ r.reshape(n * NCTRL, d))
     np.add.at(rhs, frame_pos, parts.frame_rhs)

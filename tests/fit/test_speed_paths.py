@@ -98,6 +98,32 @@ def test_per_patch_assembly_equals_the_triple_product(problem):
     np.testing.assert_allclose(prob.gradient(x), H_ref @ x - prob.rhs, rtol=0, atol=1e-12 * scale * np.abs(x).max())
 
 
+def test_local_diagonals_through_flat_views_equal_the_plain_indexing(problem):
+    """The ``local`` term's ``add_normal`` (flat views of the blocks, one index array) adds what the plain
+    ``blocks[face, slot, slot]`` indexing adds, bit for bit; on parts it cannot view flat (not contiguous)
+    it falls back to that indexing."""
+    from trispline.fit.energy import local
+    from trispline.spline.index import NCTRL
+
+    V, space, w = problem
+    a = en.setup_terms(en.term_context(space, V, w))["local"]
+    n = space.tri.n_faces
+    rng = np.random.default_rng(5)
+    blocks, rhs = rng.normal(size=(n, NCTRL, NCTRL)), rng.normal(size=(n, NCTRL, 3))
+    want_b, want_r = blocks.copy(), rhs.copy()
+    face, slot = np.divmod(a["index"], NCTRL)
+    want_b[face, slot, slot] += a["scale"] ** 2
+    want_r[face, slot] += (a["scale"] ** 2)[:, None] * a["target"]
+    flat = en.NormalParts(blocks.copy(), rhs.copy(), np.zeros(0), np.zeros((0, 3)))
+    local.add_normal(flat, a)
+    assert np.array_equal(flat.blocks, want_b) and np.array_equal(flat.patch_rhs, want_r)
+    strided = en.NormalParts(np.zeros((n, NCTRL, 2 * NCTRL))[:, :, ::2], np.zeros((n, NCTRL, 6))[:, :, ::2],
+                             np.zeros(0), np.zeros((0, 3)))
+    strided.blocks[...], strided.patch_rhs[...] = blocks, rhs
+    local.add_normal(strided, a)
+    assert np.array_equal(strided.blocks, want_b) and np.array_equal(strided.patch_rhs, want_r)
+
+
 def test_pattern_from_the_patches_equals_the_assembled_one(problem):
     """``upper_pattern`` (known before any term is set up) is the pattern ``setup_problem`` assembles,
     and ``setup_problem`` hands it to ``on_pattern`` first."""
