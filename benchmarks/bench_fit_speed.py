@@ -91,6 +91,26 @@ def clough_tocher_seconds(V: np.ndarray) -> float:
     return time.perf_counter() - t
 
 
+def memory_touch_seconds(mib: int = 256) -> tuple[float, float]:
+    """``(first, again)``: seconds per GiB to write ``mib`` MiB of fresh memory, and to write it once more.
+
+    A virtual machine that backs its memory lazily, or hands freed pages back to its host (virtio
+    free page reporting), makes every process pay on its first touch of a page: measured on the
+    project's 2-core VMs 3.3-3.6 s/GiB first against 0.1-0.3 s/GiB again, so a fit that writes
+    a few GB of fresh arrays loses seconds that a machine with resident memory does not (the
+    row's wall, system and CPU seconds all rise). Printed with each run, so that tables from
+    different machines can be told apart.
+    """
+    a = np.empty(mib << 17)  # float64: 8 bytes each
+    t = time.perf_counter()
+    a.fill(1.0)
+    first = time.perf_counter() - t
+    t = time.perf_counter()
+    a.fill(2.0)
+    again = time.perf_counter() - t
+    return first * 1024 / mib, again * 1024 / mib
+
+
 def fit_row(path: Path) -> dict:
     """Load, fit (harmonic) and save ``path`` in this process; the row's figures (run in a child)."""
     import jax
@@ -187,7 +207,9 @@ def main(argv=None) -> int:
     hdr = (f"{'mesh':<14} {'faces':>7} {'unknowns':>8} | " + " ".join(f"{s[:8]:>8}" for s in STAGES)
            + f" | {'total s':>8} {'t/factor':>7} {'GN':>3} {'C1 rel':>8} {'peak MiB':>8} {'CPU s':>7}"
            + f" | {'CT s':>7} {'x CT':>7} | {'analysis':>8} {'wait':>6} {'alone':>7}")
-    print(f"load average at start {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")
+    first, again = memory_touch_seconds()
+    print(f"load average at start {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores); fresh memory "
+          f"{first:.2f} s/GiB to write first, {again:.2f} s/GiB again")
     print(hdr)
     print("-" * len(hdr))
     tmp = Path(tempfile.mkdtemp())
