@@ -27,16 +27,20 @@ unchanged.
 """
 from __future__ import annotations
 
+import importlib.util
+
 import numpy as np
 import scipy.sparse as sp
 
 from trispline.spline.tolerances import SMOOTH_CORNER_DEGREES, SMOOTH_RCOND
 from trispline.spline.util import gather
+from trispline.spline.util.spd import solve_spd
 
 from .distortion import fold_mask
 from .tables import undirected_edges
 
-__all__ = ["DEGREE", "RINGS", "WIDTH", "BOUNDARY_REACH", "BOUNDARY_MAX_MOVE", "fit_weights", "loop_corners", "smooth_uv"]
+__all__ = ["DEGREE", "RINGS", "WIDTH", "BOUNDARY_REACH", "BOUNDARY_MAX_MOVE", "METHOD", "GLOBAL_WEIGHT",
+           "GLOBAL_MAX_VERTICES", "fit_weights", "loop_corners", "smooth_uv"]
 
 #: Degree of the local polynomial fits (measured in docs/param.md: 3 removes the
 #: irregularity without a bias of its own; 2 leaves an ``O(h^3)`` one).
@@ -58,6 +62,20 @@ BOUNDARY_MAX_MOVE = 0.03
 #: 3 were more accurate on 22 of 24 analytic cases, up to 1.9x, but gave the camel head 4 patches above
 #: 20x the data's largest curvature; so one).
 PASSES = 1
+#: How :func:`smooth_uv` smooths the interior by default: ``"global"``, the map nearest the one-pass
+#: map whose interior fits' residuals ``(I - S) uv`` are :data:`GLOBAL_WEIGHT` times more costly (one
+#: sparse solve; the outline from one pass of its loops' fits, then held), or ``"local"``, :data:`PASSES`
+#: rounds of the fits. Measured in docs/param.md ("Smoothing"): the global map won 22 of the 24 analytic
+#: cases of ``bench_accuracy3d.py`` (torus 3,229 11x -> 6x its true-uv fit's error, cap 3,205 1.9x -> 1.1x).
+METHOD = "global"
+#: Weight of the interior fits' residuals against the distance to the one-pass map (100: torus 812
+#: 2.15e-6 against 2.46e-6 at 10, 2.26e-6 at 1,000, 2.57e-6 at 1e6; Enneper 3,205 best at 100 too).
+GLOBAL_WEIGHT = 100.0
+#: Above this many vertices the default is ``"local"``: the solve's matrix couples 4-rings (60
+#: entries a row), 4.9 s at 20k vertices under load 9 (PARDISO; CHOLMOD 18 s), against 1.5 s for a pass.
+GLOBAL_MAX_VERTICES = 60_000
+#: PARDISO where installed (the matrix's fill makes CHOLMOD 3.6x slower at 20k vertices).
+_HAVE_PARDISO = importlib.util.find_spec("pypardiso") is not None
 #: Rounds of reverting the vertices of folded faces before the map is returned unchanged.
 REVERT_ROUNDS = 4
 #: Vertices fitted together (about 50 kB each at the largest neighbourhood).
@@ -142,6 +160,13 @@ def _neighbourhoods(V: np.ndarray, F: np.ndarray, rings: int) -> tuple[np.ndarra
 
 def _interior(V: np.ndarray, uv: np.ndarray, nbr: np.ndarray, h: np.ndarray, degree: int) -> np.ndarray:
     """New uv ``(n, 2)`` of the vertices ``nbr[:, 0]`` from their neighbourhoods ``nbr (n, m)``."""
+    nbr, s = _interior_weights(V, nbr, h, degree)
+    return np.matmul(s[:, None, :], gather.rows(uv, np.maximum(nbr, 0)))[:, 0]
+
+
+def _interior_weights(V: np.ndarray, nbr: np.ndarray, h: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(nbr (n, k), s (n, k))``: the fits' neighbours (-1 padded, at most :data:`MAX_NEIGHBOURS`)
+    and weights for the vertices ``nbr[:, 0]`` (neighbourhoods ``nbr (n, m)``, mean edge lengths ``h (n,)``)."""
     valid = nbr >= 0
     X = gather.rows(V, np.maximum(nbr, 0)) - gather.rows(V, nbr[:, 0])[:, None, :]  # (n, m, 3)
     r2 = np.where(valid, (X * X).sum(2) / (h * h)[:, None], np.inf)
@@ -153,8 +178,7 @@ def _interior(V: np.ndarray, uv: np.ndarray, nbr: np.ndarray, h: np.ndarray, deg
     # eigenvectors ascending: the last two span the neighbourhood's principal plane
     _, axes = np.linalg.eigh(np.matmul((Y * w[..., None]).transpose(0, 2, 1), Y))
     x = np.matmul(X, axes[:, :, [2, 1]]) / h[:, None, None]
-    s = fit_weights(x, w, degree)
-    return np.matmul(s[:, None, :], gather.rows(uv, np.maximum(nbr, 0)))[:, 0]
+    return nbr, fit_weights(x, w, degree)
 
 
 def loop_corners(P: np.ndarray) -> np.ndarray:
@@ -188,6 +212,36 @@ def _boundary(V: np.ndarray, uv: np.ndarray, loop: np.ndarray, degree: int) -> n
     return np.where(corner[:, None], uv[loop], new)
 
 
+def _operator(V: np.ndarray, nbr: np.ndarray, h: np.ndarray, degree: int) -> sp.csr_matrix:
+    """``S (nv, nv)``: row ``v`` the weights of ``v``'s interior fit, so that ``S @ uv`` is one pass of
+    the interior fits (the outline's rows too: :func:`_global` uses only the rows of free vertices)."""
+    nv = len(V)
+    rows, cols, vals = [], [], []
+    for lo in range(0, nv, CHUNK):
+        nb, s = _interior_weights(V, nbr[lo:lo + CHUNK], h[lo:lo + CHUNK], degree)
+        ok = nb >= 0
+        rows.append(np.broadcast_to(nb[:, :1], nb.shape)[ok])
+        cols.append(nb[ok])
+        vals.append(s[ok])
+    rows, cols, vals = (np.concatenate(a) for a in (rows, cols, vals))
+    return sp.csr_matrix((vals, (rows, cols)), shape=(nv, nv))
+
+
+def _global(S: sp.csr_matrix, uv: np.ndarray, fixed: np.ndarray, weight: float) -> np.ndarray:
+    """The map ``(nv, 2)`` nearest ``uv (nv, 2)`` whose fits' residuals are small: ``x`` minimising
+    ``weight |((I - S) x)_free|^2 + |x_free - uv_free|^2`` over the vertices not ``fixed (nv,)``
+    (which stay at their ``uv``); one sparse SPD solve, both coordinates together."""
+    nv = len(uv)
+    free = ~fixed
+    D = (sp.identity(nv, format="csr") - S)[free]
+    Df, Dc = D[:, free], D[:, fixed]
+    A = weight * (Df.T @ Df) + sp.identity(int(free.sum()), format="csr")
+    b = uv[free] - weight * (Df.T @ (Dc @ uv[fixed]))
+    out = uv.copy()
+    out[free] = solve_spd(A.tocsr(), b, backend="pardiso" if _HAVE_PARDISO else None)
+    return out
+
+
 def _uv_edge_length(F: np.ndarray, uv: np.ndarray) -> np.ndarray:
     """``(nv,)`` each vertex's mean uv edge length."""
     nv = len(uv)
@@ -199,22 +253,29 @@ def _uv_edge_length(F: np.ndarray, uv: np.ndarray) -> np.ndarray:
 
 def smooth_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, loops: list[np.ndarray], *,
               degree: int = DEGREE, rings: int = RINGS, keep: np.ndarray | None = None,
-              passes: int | None = None) -> tuple[np.ndarray, dict]:
+              passes: int | None = None, method: str | None = None) -> tuple[np.ndarray, dict]:
     """Smoothed, fold-free copy ``(nv, 2)`` of the map ``uv (nv, 2)`` of the mesh ``V (nv, 3)``, ``F (nf, 3)``.
 
     ``loops``: the mesh's boundary loops (e.g. :attr:`ValidatedMesh.boundary_loops`); ``keep``:
-    vertex ids that keep their uv (e.g. the harmonic map's outline, on its circle); ``passes``:
-    rounds of interior fits, each from the last one's map (the outline's in the first only;
-    default :data:`PASSES`). Returns the map and
-    ``info``: ``moved_max`` (largest move over the vertex's mean edge length in uv), ``reverted``
-    (vertices that kept their uv because of a fold), ``fallback`` (True when the unchanged map
-    was returned).
+    vertex ids that keep their uv (e.g. the harmonic map's outline, on its circle); ``method``:
+    ``"local"``, ``passes`` rounds of interior fits, each from the last one's map (the outline's
+    in the first only; default :data:`PASSES`), or ``"global"``, one round, then the interior
+    solved for the map nearest it whose fits' residuals are small (:data:`GLOBAL_WEIGHT`; the
+    outline held; where that folds a face, the one round's map instead); default :data:`METHOD`,
+    ``"local"`` above :data:`GLOBAL_MAX_VERTICES`. Returns the map and ``info``: ``moved_max``
+    (largest move over the vertex's mean edge length in uv), ``reverted`` (vertices that kept their
+    uv because of a fold), ``fallback`` (True when the unchanged map was returned), ``method``
+    (the one used).
     """
     nv = len(V)
+    if method is None:
+        method = METHOD if nv <= GLOBAL_MAX_VERTICES else "local"
+    if method not in ("global", "local"):
+        raise ValueError(f"unknown smoothing method {method!r}; choose 'global' or 'local'")
     nbr, h = _neighbourhoods(V, F, rings)
     huv = _uv_edge_length(F, uv)
     new = uv
-    for k in range(PASSES if passes is None else passes):
+    for k in range(1 if method == "global" else PASSES if passes is None else passes):
         last, new = new, np.empty_like(uv)
         for lo in range(0, nv, CHUNK):
             sl = slice(lo, min(lo + CHUNK, nv))
@@ -225,6 +286,17 @@ def smooth_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, loops: list[np.ndarr
             new[loop] = np.where(far[:, None], uv[loop], b)
         if keep is not None:
             new[keep] = uv[keep]
+    if method == "global":
+        held = np.zeros(nv, bool)
+        for loop in loops:
+            held[loop] = True
+        if keep is not None:
+            held[keep] = True
+        solved = _global(_operator(V, nbr, h, degree), new, held, GLOBAL_WEIGHT)
+        if np.logical_or(*fold_mask(solved, F)).any():  # the one pass instead (reverted below as before)
+            method = "local"
+        else:
+            new = solved
     new = new.copy()
     kept = np.zeros(nv, bool)
     for _ in range(REVERT_ROUNDS):
@@ -238,4 +310,5 @@ def smooth_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, loops: list[np.ndarr
     if fallback:
         new = uv.copy()
     moved = np.linalg.norm(new - uv, axis=1) / np.maximum(huv, np.finfo(float).tiny)
-    return new, dict(moved_max=float(moved.max(initial=0.0)), reverted=int(kept.sum()), fallback=fallback)
+    return new, dict(moved_max=float(moved.max(initial=0.0)), reverted=int(kept.sum()), fallback=fallback,
+                     method=method)
