@@ -14,7 +14,9 @@ and one reweighted least-squares solve each (weights afresh from the round's own
 fit), so the vertex count can change every round without compiling anything; the final
 fit converges the robust loss itself, preconditioned by the reweighted factor. The
 refinement keeps the round of smallest maximum inlier deviation (it never makes that
-worse); the final fit replaces it unless it would break a tolerance met (or do worse).
+worse); the final fit replaces it unless it would break a tolerance met (or do worse). A budget
+alone measures the deviation both ways (the surface's samples to the scan too,
+:func:`~.refine.surface_gaps`) and ends with parameter corrections (:func:`_final`).
 """
 from __future__ import annotations
 
@@ -41,7 +43,7 @@ from ..weights import FitWeights
 from .analysis import SPIKE_LEVELS
 from .deviation import Deviation, summary
 from .domain import DEFAULT_FRACTION, CoarseDomain, coarse_domain, insert
-from .fit import APPROX_WEIGHTS, cross_validated_weight, fit_domain, scan_parameters
+from .fit import APPROX_WEIGHTS, corrected_parameters, cross_validated_weight, fit_domain, scan_parameters
 from .problem import CORNER_MODES
 from .refine import Round, measure, pick_vertices
 
@@ -79,6 +81,10 @@ MAX_ROUNDS = 20
 GROW_TRIES = 3
 #: Reweighted least-squares steps after each round's plain fit (a robust loss).
 IRLS_STEPS = 1
+#: A budget alone: parameter corrections after the final fit (each a refit at the last fit's closest points,
+#: :func:`~.fit.corrected_parameters`, and its deviation both ways). The rounds and a tolerance's final fit
+#: keep the scan's own uv (a tolerance's speed: one more deviation of a 1M-face scan is ~20 s).
+FINAL_CORRECTIONS = 3
 
 #: Uniform-Laplacian steps on the interior vertices before parameterizing (boundary fixed).
 PARAM_SMOOTHING = 3
@@ -104,7 +110,8 @@ class ApproxResult:
     rejected : (n,) bool, the points the robust loss rejected (outliers; the tolerance does not apply)
     stats : deviation (the inliers' :func:`~.deviation.summary`), deviation_all, rejected, vertices,
         patches, tolerance, budget, met, stop (why the refinement stopped), rounds, noise, scale,
-        data_weight and cross_validated (whether it was chosen so)
+        data_weight, cross_validated (whether it was chosen so) and corrections (the parameter corrections
+        of the fit kept, :func:`_final`)
     energies : dict term -> energy (``bend``, ``data``; data units); iterations : Gauss--Newton steps
     converged : bool; history : one record per round (vertices, max, rms, rejected, seconds)
     timings : dict stage -> seconds; parameterization : the Parameterization (``method="uv"`` with ``uv``)
@@ -113,6 +120,9 @@ class ApproxResult:
         with nearly singular vertices snapped (extras ``domain_max_move``, ``domain_max_relative_move``),
         and with ``uv`` given (or ``param="uv"``) in the caller's own uv
     c1_residual : worst C1 residual (relative); max_interpolation_error : corners vs their scan vertices
+    located : ``(face (n,), bary (n, 3))``, the scan's parameters in the fit: their own uv
+        (:func:`~.fit.scan_parameters`) or, after a kept parameter correction (``stats["corrections"]``), an
+        earlier fit's closest points
     """
 
     surface: SplineSurface
@@ -134,6 +144,7 @@ class ApproxResult:
     c1_residual: float
     max_interpolation_error: float
     weights: FitWeights = field(default=APPROX_WEIGHTS)
+    located: tuple | None = None
 
 
 @dataclass(frozen=True)
@@ -323,11 +334,11 @@ def approximate_surface(
         opt = dataclasses.replace(opt, weights=_smoothing(dom, V, opt))
         stage("smoothing")
     scale = None if opt.loss == "l2" else loss_scale(dom, opt.loss, diagonal)
-    best, history, stop = _refine(V, dom, opt, scale, max_rounds, stage)
+    best, history, stop = _refine(V, faces, dom, opt, scale, max_rounds, stage)
     if not opt.refine and best.dom.stats.n_vertices < opt.budget and stop == "noise floor":
         dom, opt, best, more, stop = _whole_budget(V, faces, uv, opt, scale, stage)
         history += more
-    final, weights = _final(V, best, opt, scale, best.dom is not dom, stage)
+    final, weights = _final(V, faces, best, opt, scale, best.dom is not dom, stage)
     return _result(V, final, opt, weights, scale, history, stop, clock.timings, parameterization)
 
 
@@ -340,13 +351,22 @@ def _whole_budget(V: np.ndarray, F: np.ndarray, uv: np.ndarray, opt: _Options, s
     if opt.auto:
         opt = dataclasses.replace(opt, weights=_smoothing(dom, V, opt))
         stage("smoothing")
-    best, history, _ = _refine(V, dom, opt, scale, 1, stage)
+    best, history, _ = _refine(V, F, dom, opt, scale, 1, stage)
     return dom, opt, best, history, "noise floor"
 
 
-def _smoothing(dom: CoarseDomain, V: np.ndarray, opt: _Options) -> FitWeights:
-    """:data:`~.fit.APPROX_WEIGHTS` with the cross-validated data weight of ``dom``."""
-    return dataclasses.replace(APPROX_WEIGHTS, data=cross_validated_weight(dom, V, corners=opt.corners)[0])
+def _smoothing(dom: CoarseDomain, V: np.ndarray, opt: _Options, located: tuple | None = None) -> FitWeights:
+    """:data:`~.fit.APPROX_WEIGHTS` with the cross-validated data weight of ``dom`` (scan at ``located``)."""
+    return dataclasses.replace(APPROX_WEIGHTS, data=cross_validated_weight(dom, V, corners=opt.corners,
+                                                                           located=located)[0])
+
+
+def _located(dom: CoarseDomain, previous: Round | None) -> tuple[np.ndarray, np.ndarray]:
+    """The scan's parameters in ``dom``: at the closest points of ``previous``'s surface
+    (:func:`~.fit.corrected_parameters`), or their own uv without one."""
+    if previous is None:
+        return scan_parameters(dom)
+    return corrected_parameters(dom, previous.deviation.uv, previous.deviation.on_boundary)
 
 
 def loss_scale(dom: CoarseDomain, loss: str, diagonal: float) -> np.ndarray:
@@ -417,7 +437,7 @@ def _grow(dom: CoarseDomain, state: Round, threshold: float, room: int, budget: 
     return dom
 
 
-def _refine(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None, max_rounds: int,
+def _refine(V: np.ndarray, F: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None, max_rounds: int,
             stage: Callable) -> tuple[Round, list[dict], str]:
     """The refinement rounds: ``(best round, history, why it stopped)``.
 
@@ -436,7 +456,7 @@ def _refine(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None
         fit, located = _round_fit(V, dom, opt, scale)
         stage("fit")
         state = measure(dom, V, fit, located, scale is not None, seconds=time.perf_counter() - t0,
-                        outline=not opt.refine)
+                        outline=not opt.refine, scan_faces=None if opt.refine else F)
         record = dict(state.record(), round=r + 1, tolerance=opt.tolerance, budget=opt.budget)
         history.append(record)
         stage("deviation", record=record)
@@ -470,25 +490,33 @@ def _at_noise_floor(history: list[dict], noise: float) -> bool:
     return first <= BUDGET_FLOOR * noise and second > BUDGET_GAIN * first
 
 
-def _final(V: np.ndarray, best: Round, opt: _Options, scale: np.ndarray | None, refined: bool, stage: Callable
-           ) -> tuple[Round, FitWeights]:
+def _final(V: np.ndarray, F: np.ndarray, best: Round, opt: _Options, scale: np.ndarray | None, refined: bool,
+           stage: Callable) -> tuple[Round, FitWeights]:
     """The final fit on the best round's domain: with a robust loss its minimum by Gauss--Newton; with
-    cross-validated weights and a refined domain, the weight chosen again on it. With a
-    tolerance it replaces the best round only if it meets the tolerance too or does not raise the
-    maximum deviation. Returns the state kept and its weights."""
+    cross-validated weights and a refined domain, the weight chosen again on it. A budget alone: then
+    :data:`FINAL_CORRECTIONS` parameter corrections (the scan at the last fit's closest points,
+    :func:`_located`), keeping the fit of smallest :attr:`~.refine.Round.worst` (the largest deviation
+    both ways, what the refinement minimises; on exact data the corrections change nothing, the closest
+    points being the scan's own parameters). With a tolerance it replaces the best round only if it meets the tolerance too or does not
+    raise the maximum deviation. Returns the state kept and its weights."""
     t0 = time.perf_counter()
-    weights = _smoothing(best.dom, V, opt) if (opt.auto and refined) else opt.weights
-    if scale is None and weights == opt.weights:
-        stage("final")
-        return best, opt.weights
-    pw = None if scale is None else _irls_weights(best.fit, best.located, V, scale, opt.loss)
-    fit = fit_domain(best.dom, V, weights=weights, loss=opt.loss, scale=scale, corners=opt.corners,
-                     located=best.located, point_weight=pw, gauss_newton=scale is not None)
-    state = measure(best.dom, V, fit, best.located, scale is not None, seconds=time.perf_counter() - t0)
+    located = best.located if opt.refine else _located(best.dom, best)
+    weights = _smoothing(best.dom, V, opt, located) if (opt.auto and refined) else opt.weights
+    state, kept = best, None
+    for k in range(1 if opt.refine else 1 + FINAL_CORRECTIONS):
+        pw = None if scale is None else _irls_weights(state.fit, located, V, scale, opt.loss)
+        fit = fit_domain(best.dom, V, weights=weights, loss=opt.loss, scale=scale, corners=opt.corners,
+                         located=located, point_weight=pw, gauss_newton=scale is not None)
+        state = measure(best.dom, V, fit, located, scale is not None, seconds=time.perf_counter() - t0,
+                        outline=not opt.refine, scan_faces=None if opt.refine else F)
+        state = dataclasses.replace(state, corrections=k + (not opt.refine))
+        if kept is None or state.worst < kept.worst:
+            kept = state
+        located = _located(best.dom, state)
     stage("final")
     # the final fit, unless it would break a tolerance the best round met (or do worse)
-    keep = opt.tolerance is None or state.max_deviation <= max(opt.tolerance, best.max_deviation)
-    return (state, weights) if keep else (best, opt.weights)
+    keep = opt.tolerance is None or kept.max_deviation <= max(opt.tolerance, best.max_deviation)
+    return (kept, weights) if keep else (best, opt.weights)
 
 
 def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, scale: np.ndarray | None,
@@ -505,7 +533,7 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
                  rejected=int(state.rejected.sum()), vertices=int(dom.stats.n_vertices), patches=int(tri.n_faces),
                  tolerance=opt.tolerance, budget=opt.budget, met=bool(met), stop=stop, rounds=len(history),
                  noise=float(dom.stats.noise), scale=nominal, scan_vertices=int(V.shape[0]))
-    stats.update(data_weight=float(weights.data), cross_validated=opt.auto)
+    stats.update(data_weight=float(weights.data), cross_validated=opt.auto, corrections=state.corrections)
     settings = dict(loss=opt.loss, corners=opt.corners, tolerance=opt.tolerance, budget=opt.budget, scale=nominal,
                     data_weight=float(weights.data))
     extras = surface_extras(dom, fit, V, stats, settings, weights)
@@ -519,7 +547,8 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
         stats=stats, energies=fit.energies, iterations=fit.iterations, converged=fit.converged, history=history,
         timings=dict(timings), parameterization=parameterization, settings=settings, uv=uv, faces=faces,
         ctrl=net, c1_residual=float(continuity_report(tri, ctrl)["c1_relative"]),
-        max_interpolation_error=float(np.abs(corners - V[dom.vertices][tri.faces]).max()), weights=weights)
+        max_interpolation_error=float(np.abs(corners - V[dom.vertices][tri.faces]).max()), weights=weights,
+        located=state.located)
 
 
 #: The deviation statistics stored in the surface file, in order (``approx_deviation``).

@@ -28,7 +28,8 @@ from .deviation import Deviation, summary, surface_deviation
 from .domain import MIN_SEPARATION, CoarseDomain, separation
 from .fit import CoarseFit
 
-__all__ = ["Round", "measure", "outline_gaps", "pick_vertices", "REJECT_SIGMAS", "GROWTH"]
+__all__ = ["Round", "measure", "outline_gaps", "surface_gaps", "pick_vertices", "REJECT_SIGMAS", "GROWTH",
+           "GAP_RESOLUTION"]
 
 #: A spike farther than this many noise standard deviations from the fit is rejected (robust losses only).
 REJECT_SIGMAS = 6.0
@@ -38,6 +39,8 @@ GROWTH = 2.0
 INTERIOR_BARY = 0.2
 #: Roughness (in local noise levels) that halves a candidate's preference.
 ROUGHNESS_SCALE = 1.5
+#: Tessellation steps per patch edge of :func:`surface_gaps`'s surface samples.
+GAP_RESOLUTION = 4
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,10 @@ class Round:
         coarse boundary (the chord's sagitta in 3D, :func:`outline_gaps`; 0 elsewhere), which refinement
         treats as a deviation: it is the surface-to-scan distance where a chord crosses a hole or a
         concave run of the outline (the surface there has no data under it)
+    face_gap : (f,) or None, each coarse face's largest distance of its surface samples to the scan mesh
+        (:func:`surface_gaps`), which refinement treats as a deviation of the face: the surface-to-scan side
+        that the scan vertices cannot see (a patch swinging out where it has few data)
+    corrections : parameter corrections behind ``located`` (0: the scan's own uv)
     """
 
     dom: CoarseDomain
@@ -61,13 +68,17 @@ class Round:
     inliers: dict
     seconds: float
     outline: np.ndarray | None = None
+    face_gap: np.ndarray | None = None
+    corrections: int = 0
 
     @property
     def worst(self) -> float:
-        """The inliers' largest :attr:`pick_distance` (model units): with :attr:`outline`, what a budget's
-        refinement minimises (the surface-to-scan side of the outline included)."""
+        """The inliers' largest :attr:`pick_distance` (model units), or a larger :attr:`face_gap`: with
+        :attr:`outline` and :attr:`face_gap`, what a budget's refinement minimises (the surface-to-scan side
+        included)."""
         d = self.pick_distance[~self.rejected]
-        return float(d.max()) if d.size else 0.0
+        worst = float(d.max()) if d.size else 0.0
+        return worst if self.face_gap is None else max(worst, float(self.face_gap.max(initial=0.0)))
 
     @property
     def pick_distance(self) -> np.ndarray:
@@ -89,16 +100,19 @@ class Round:
 
 
 def measure(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit, located: tuple[np.ndarray, np.ndarray],
-            robust: bool, seconds: float = 0.0, outline: bool = False) -> Round:
+            robust: bool, seconds: float = 0.0, outline: bool = False, scan_faces: np.ndarray | None = None
+            ) -> Round:
     """The deviation of every scan vertex ``V (n, 3)`` from ``fit``, and the rejected ones (none unless ``robust``);
-    with ``outline`` the outline's gaps too (:func:`outline_gaps`)."""
+    with ``outline`` the outline's gaps too (:func:`outline_gaps`), with ``scan_faces (m, 3)`` the faces' gaps
+    to the scan (:func:`surface_gaps`)."""
     dev = surface_deviation(fit.surface, V)
     rejected = np.zeros(V.shape[0], bool)
     if robust:
         rejected = dom.analysis.spike & (dev.distance > REJECT_SIGMAS * dom.stats.noise)
     return Round(dom=dom, fit=fit, located=located, deviation=dev, rejected=rejected,
                  inliers=summary(dev.distance, ~rejected), seconds=seconds,
-                 outline=outline_gaps(dom, V, fit) if outline else None)
+                 outline=outline_gaps(dom, V, fit) if outline else None,
+                 face_gap=None if scan_faces is None else surface_gaps(dom, V, scan_faces, fit))
 
 
 def outline_gaps(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit) -> np.ndarray:
@@ -111,6 +125,18 @@ def outline_gaps(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit) -> np.ndarray
     face, bary, _ = dom.locator.on_edge(edge, t)
     gap = np.zeros(V.shape[0])
     gap[ids] = np.linalg.norm(fit.surface.evaluate(face, bary) - V[ids], axis=1)
+    return gap
+
+
+def surface_gaps(dom: CoarseDomain, V: np.ndarray, F: np.ndarray, fit: CoarseFit) -> np.ndarray:
+    """``(f,)`` each coarse face's largest distance from the samples of its patch (the tessellation at
+    :data:`GAP_RESOLUTION`) to the scan ``V (n, 3)``, ``F (m, 3)`` (exact closest points on its triangles)."""
+    from trispline.param import closest_points  # libigl AABB tree
+
+    mesh = fit.surface.tessellate(GAP_RESOLUTION)
+    sq = closest_points(mesh.vertices, V, F)[0]
+    gap = np.zeros(dom.stats.n_faces)
+    np.maximum.at(gap, dom.locate(mesh.uv).face, np.sqrt(np.maximum(sq, 0.0)))
     return gap
 
 
@@ -133,7 +159,8 @@ def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray
     dom, d = state.dom, state.pick_distance
     face, bary = state.located
     over = ~state.rejected & (d > tolerance)
-    worst = np.zeros(dom.stats.n_faces)
+    worst = np.zeros(dom.stats.n_faces) if state.face_gap is None else np.where(state.face_gap > tolerance,
+                                                                                  state.face_gap, 0.0)
     np.maximum.at(worst, face[over], d[over])
     local = np.full(d.size, -1, np.int64)
     local[dom.vertices] = np.arange(dom.vertices.size)

@@ -13,10 +13,12 @@ from trispline.fit.approx import (  # noqa: E402
     APPROX_WEIGHTS, approximate_surface, coarse_domain, fit_domain, scan_parameters,
 )
 from trispline.fit.approx.fit import (  # noqa: E402
-    BEND_WEIGHT_RANGE, DATA_WEIGHTS, EXTRAPOLATION, bend_face_weights, cross_validated_weight, quadric_reference,
+    BEND_WEIGHT_RANGE, DATA_WEIGHTS, EXTRAPOLATION, OUTLINE_DATA_WEIGHT, bend_face_weights, corrected_parameters,
+    cross_validated_weight, outline_faces, outline_factor, quadric_reference,
 )
 from trispline.fit.approx.pipeline import loss_scale  # noqa: E402
-from trispline.fit.approx.refine import outline_gaps  # noqa: E402
+from trispline.fit.approx.deviation import surface_deviation  # noqa: E402
+from trispline.fit.approx.refine import measure, outline_gaps  # noqa: E402
 from trispline.fit.datasets.truth import grid_with_hole, truth_scan  # noqa: E402
 from trispline.fit.energy import robust  # noqa: E402
 from trispline.fit.energy.data import DataPoints  # noqa: E402
@@ -224,7 +226,7 @@ def test_loss_scale_widens_away_from_spikes():
 def test_fit_domain_plain_and_reweighted():
     s = truth_scan("bumps", 2000, sigma=1e-3, seed=6)
     res = approximate_surface(s.V, s.F, uv=s.params, n_vertices=50, loss="l2")
-    fit = fit_domain(res.domain, s.V, loss="l2", weights=res.weights)
+    fit = fit_domain(res.domain, s.V, loss="l2", weights=res.weights, located=res.located)
     np.testing.assert_allclose(fit.surface.ctrl, res.surface.ctrl, rtol=0, atol=1e-12)
     assert fit.iterations == 0 and set(fit.energies) == {"bend", "data"}
     with pytest.raises(ValueError, match="needs its scale"):
@@ -345,3 +347,41 @@ def test_distorted_map_smooths_no_more_where_it_compresses(monkeypatch):
     monkeypatch.setattr(fit_module, "bend_face_weights", lambda dom: np.ones(dom.stats.n_faces))
     plain = rms()
     assert weighted[0] < 0.85 * plain[0]
+
+
+def test_corrected_parameters_are_the_closest_points():
+    # a curved scan fitted at its own uv; each scan vertex's corrected parameter evaluates to its
+    # closest point on that surface (off the boundary curve)
+    V, F, uv = height_field(lambda s, t: 0.3 * np.sin(2.5 * s) * np.cos(2.0 * t), n=2500, seed=3)
+    dom = coarse_domain(V, F, uv, n_vertices=80)
+    fit = fit_domain(dom, V, loss="l2")
+    dev = surface_deviation(fit.surface, V)
+    face, bary = corrected_parameters(dom, dev.uv, dev.on_boundary)
+    own = scan_parameters(dom)
+    moved = ~dev.on_boundary & ~dom.locate(dev.uv).clamped
+    assert moved.mean() > 0.9
+    np.testing.assert_allclose(fit.surface.evaluate(face[moved], bary[moved]), dev.closest[moved], atol=1e-9)
+    np.testing.assert_array_equal(face[~moved], own[0][~moved])  # on the boundary curve: their own uv
+
+
+def test_outline_patches_keep_their_smoothing():
+    assert outline_factor(10.0) == 1.0 and outline_factor(OUTLINE_DATA_WEIGHT) == 1.0
+    assert outline_factor(10 * OUTLINE_DATA_WEIGHT) == pytest.approx(10.0)
+    V, F, uv = height_field(QUADRIC, n=1200)
+    dom = coarse_domain(V, F, uv, n_vertices=40)
+    edge = outline_faces(dom)
+    np.testing.assert_array_equal(edge, (dom.triangulation.face_adjacency < 0).any(1))  # a side without a neighbour
+    assert 0 < edge.sum() < edge.size
+
+
+def test_surface_gaps_see_a_patch_over_the_hole():
+    V, F, uv = height_field(PLANE, n=1200)
+    dom = coarse_domain(V, F, uv, n_vertices=30)
+    fit = fit_domain(dom, V, loss="l2")
+    state = measure(dom, V, fit, scan_parameters(dom), False, scan_faces=F)
+    diag = float(np.linalg.norm(V.max(0) - V.min(0)))
+    assert state.face_gap.shape == (dom.stats.n_faces,)
+    covered = ~outline_faces(dom)
+    assert state.face_gap[covered].max() <= 1e-9 * diag  # the plane is exact where the scan is under it
+    assert state.face_gap.max() > 1e-4 * diag  # a chord across the round hole: surface with no scan under it
+    assert state.worst >= state.face_gap.max()
