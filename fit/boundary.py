@@ -36,8 +36,9 @@ reference and the local term's targets agree):
 * ears (:func:`ear_substitutes`): a patch with all three vertices on the outline takes the fit of
   the nearest vertex off the outline.
 
-:func:`corner_gradients` offers the same substitution for the tilt targets of a corner whose only
-face is an ear (measured in docs/fit.md, "Boundary curves faired as curves, ear triangles").
+:func:`corner_gradients` makes the same substitution for the tilt targets of a corner whose only
+face is an ear (:mod:`trispline.fit.energy.tilt`; measured in docs/fit.md, "Boundary curves faired
+as curves, ear triangles").
 """
 from __future__ import annotations
 
@@ -154,8 +155,8 @@ def corner_gradients(ctx: TermContext) -> np.ndarray:
     """``(m, d, 2)`` the tilt targets' gradients at the context's frame vertices: the local fits' own
     (``ctx.fit.grad``), except at a corner whose only face is an ear (:func:`ear_substitutes`): there
     the gradient of the ear's substitute fit at the corner (central differences; its own fit is
-    the most one-sided of all), as far as that fit is trusted (:func:`trust`). A hook for :mod:`trispline.fit.energy.tilt` (measured in
-    docs/fit.md, "The boundary")."""
+    the most one-sided of all), as far as that fit is trusted (:func:`trust`). The targets of
+    :mod:`trispline.fit.energy.tilt` (measured in docs/fit.md, "The boundary")."""
     fv = ctx.frame_vertices
     grad = ctx.fit.grad[fv].copy()
     if not EAR_TARGETS:

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..agreement import frame_trust
+from ..boundary import corner_gradients
 from .arrays import Array
 
 if TYPE_CHECKING:
@@ -28,7 +29,7 @@ def setup(ctx: TermContext) -> dict[str, np.ndarray]:
     """``target (2m, 3)`` and ``scale (2m,)`` of the frame points (``u`` frames, then ``v`` frames)."""
     d = ctx.frame_scale
     Vf = ctx.V[ctx.frame_vertices]
-    grad = ctx.fit.grad[ctx.frame_vertices]  # (m, 3, 2)
+    grad = corner_gradients(ctx)  # (m, 3, 2) the local fits' own, but at a lone corner of an ear (fit.boundary)
     step = (d / 5.0)[:, None]
     target = np.concatenate([Vf + grad[:, :, 0] * step, Vf + grad[:, :, 1] * step])
     scale = np.tile(np.sqrt(ctx.weights.tilt * ctx.vertex_area) * 5.0 / d**2 * frame_trust(ctx), 2)  # fit.agreement

@@ -146,3 +146,23 @@ def test_a_lone_corners_gradient_from_its_ears_substitute_is_closer_to_the_truth
     err_new = np.linalg.norm(g[changed] - truth[changed], axis=(1, 2))
     err_own = np.linalg.norm(ctx.fit.grad[changed] - truth[changed], axis=(1, 2))
     assert np.median(err_new / err_own) < 0.2  # measured 0.002-0.07
+
+
+def test_the_tilt_targets_of_a_lone_corner_come_from_its_ears_substitute():
+    """``tilt`` takes :func:`~trispline.fit.boundary.corner_gradients` (wired in: barrel 808 RMS
+    1.33e-6 -> 9.7e-7, docs/fit.md), not the corner's own one-sided fit."""
+    from trispline.fit import FitWeights
+    from trispline.fit.boundary import corner_gradients
+    from trispline.fit.datasets.analytic import analytic_mesh
+    from trispline.fit.energy import term_context, tilt
+    from trispline.spline.propagation import build_space
+    from trispline.spline.topology import Triangulation
+
+    mesh = analytic_mesh("barrel240", 800)
+    ctx = term_context(build_space(Triangulation(mesh.params, mesh.F)), mesh.V, FitWeights())
+    a = tilt.setup(ctx)
+    m = len(ctx.frame_vertices)
+    g = corner_gradients(ctx)
+    step = (ctx.frame_scale / 5.0)[:, None]
+    np.testing.assert_allclose(a["target"][:m], ctx.V[ctx.frame_vertices] + g[:, :, 0] * step, rtol=0, atol=1e-15)
+    assert (np.abs(g - ctx.fit.grad[ctx.frame_vertices]).max((1, 2)) > 0).any()
