@@ -50,7 +50,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 from trispline.param.tables import boundary_loops, undirected_edges
 from trispline.spline.index import DEGREE, EXPONENTS
-from trispline.spline.topology import mean_edge_lengths
+from trispline.spline.topology import mean_edge_lengths, outline_vertex_mask
 
 from .agreement import local_trust, log_fade
 from .curves import bump_bernstein, loop_bulges
@@ -140,9 +140,7 @@ def ear_substitutes(uv: np.ndarray, halo_faces: np.ndarray, faces: np.ndarray, e
     """``(n,)`` for each of the patches ``faces (n, 3)`` that is an ear (its three vertices on the
     outline of ``halo_faces``) the vertex off the outline nearest its uv centroid; -1 elsewhere.
     ``uv (h, 2)``; vertex ids index it; ``edges``: the :func:`edge_tables` of ``halo_faces``, when known."""
-    he, he_edge, count = edge_tables(halo_faces, len(uv)) if edges is None else edges
-    on = np.zeros(len(uv), bool)
-    on[he[count[he_edge] == 1].ravel()] = True
+    on = outline_vertex_mask(halo_faces, len(uv), tables=edge_tables(halo_faces, len(uv)) if edges is None else edges)
     ear = on[faces].all(1)
     out = np.full(len(faces), -1, np.int64)
     inside = np.flatnonzero(~on)

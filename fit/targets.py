@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from trispline.spline.topology import outline_vertex_mask
 from trispline.spline.tolerances import DEGENERATE_TANGENT_RTOL, TINY
 from trispline.spline.util.parallel import Workers
 
@@ -68,18 +69,6 @@ def vertex_rings(faces: np.ndarray, nv: int, rings: int = 2) -> sp.csr_matrix:
     R.eliminate_zeros()
     R.sort_indices()
     return R.tocsr()
-
-
-def outline_vertices(faces: np.ndarray, nv: int) -> np.ndarray:
-    """``(nv,)`` bool: the vertices on a boundary edge (an edge of one face) of ``faces (nf, 3)``."""
-    F = np.asarray(faces, np.int64)
-    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    key, cnt = np.unique(e[:, 0] * nv + e[:, 1], return_counts=True)
-    on = np.zeros(nv, bool)
-    one = key[cnt == 1]
-    on[one // nv] = True
-    on[one % nv] = True
-    return on
 
 
 def padded_neighbours(
@@ -424,7 +413,7 @@ def local_rbf_fit(
     if vals.ndim == 1:
         vals = vals[:, None]
     nv, d = vals.shape
-    wider = outline_vertices(faces, nv) if (OUTLINE_RING if outline_ring is None else outline_ring) else None
+    wider = outline_vertex_mask(faces, nv) if (OUTLINE_RING if outline_ring is None else outline_ring) else None
     nbr, count = padded_neighbours(uv, faces, rings, max_neighbours, wider)
     scale = _local_scale(uv, faces, nv)
     valid = np.concatenate([np.ones((nv, 1), bool), nbr >= 0], axis=1)  # the vertex first

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from trispline.spline.checks import check_ids
+from trispline.spline.topology import outline_vertex_mask
 
 from .errors import MeshError
 from .tables import corner_fans, edge_pairs, orientation_classes, undirected_edges, vertex_components
@@ -172,9 +173,7 @@ def _cut_flaps(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     for _ in range(MAX_FLAP_ROUNDS):
         pairs, _ = folded_edges(V, F[keep])
         alone = np.bincount(pairs.ravel(), minlength=keep.size) == 3  # folds against all three neighbours
-        _, edges, _, count = undirected_edges(F[keep], V.shape[0])
-        rim = np.zeros(V.shape[0], bool)
-        rim[edges[count == 1].ravel()] = True
+        rim = outline_vertex_mask(F[keep], V.shape[0])
         alone &= ~rim[F[keep]].any(1)  # on the rim, cutting it opens no hole
         pairs = pairs[~alone[pairs].any(1)]
         if not pairs.size:

@@ -58,6 +58,20 @@ def undirected_edges(F: np.ndarray, nv: int, *, he: np.ndarray | None = None
     return he, edges, inv.ravel(), cnt
 
 
+def outline_vertex_mask(F: np.ndarray, nv: int, *, tables: tuple | None = None) -> np.ndarray:
+    """``(nv,)`` bool: the vertices on a boundary edge (an edge of one face) of ``F (nf, 3)``.
+
+    ``tables``: ``(he, he_edge, edge_count)`` of :func:`undirected_edges` of ``F``, when known.
+    """
+    if tables is None:
+        he, _, he_edge, count = undirected_edges(np.asarray(F, np.int64), nv)
+    else:
+        he, he_edge, count = tables
+    on = np.zeros(nv, bool)
+    on[he[count[he_edge] == 1].ravel()] = True
+    return on
+
+
 def triangle_areas(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     """Signed areas ``(n,)`` of the triangles ``(a, b, c)``, each ``(n, 2)``; positive counter-clockwise."""
     return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))

@@ -31,12 +31,13 @@ from trispline.fit.pipeline import fit_surface  # noqa: E402
 from trispline.fit.progress import accepts_fraction, map_reporting, span  # noqa: E402
 from trispline.fit.solve import SparseCholesky, estimate_factor_bytes  # noqa: E402
 from trispline.fit.stages import ASSEMBLE, FIT_STAGES  # noqa: E402
-from trispline.fit.targets import (RBF_KERNELS, _poly3, local_rbf_fit, outline_vertices,  # noqa: E402
+from trispline.fit.targets import (RBF_KERNELS, _poly3, local_rbf_fit,  # noqa: E402
                                     padded_neighbours, vertex_rings)
 from trispline.fit.weights import FitWeights  # noqa: E402
 from trispline.spline.errors import InputError  # noqa: E402
 from trispline.spline.propagation import build_space  # noqa: E402
 from trispline.spline.testing.domains import orient_ccw, random_delaunay  # noqa: E402
+from trispline.spline.topology import outline_vertex_mask  # noqa: E402
 from trispline.spline.topology import Triangulation  # noqa: E402
 from trispline.spline.util.parallel import Workers  # noqa: E402
 from trispline.spline.util.sparse import compact  # noqa: E402
@@ -208,7 +209,7 @@ def test_neighbour_order_equals_a_lexicographic_sort(rings, most):
         ref_nbr, ref_count = _lexsorted_neighbours(uv, F, rings, most)
         np.testing.assert_array_equal(nbr, ref_nbr)
         np.testing.assert_array_equal(count, ref_count)
-        on = outline_vertices(F, len(uv))  # the outline's vertices with a ring more (targets.OUTLINE_RING)
+        on = outline_vertex_mask(F, len(uv))  # the outline's vertices with a ring more (targets.OUTLINE_RING)
         nbr, count = padded_neighbours(uv, F, rings, most, on)
         ref_nbr, ref_count = _lexsorted_neighbours(uv, F, rings, most, on)
         np.testing.assert_array_equal(nbr, ref_nbr)
@@ -239,7 +240,7 @@ def test_local_fits_equal_a_per_vertex_loop(problem):
     tri = space.tri
     fit = local_rbf_fit(tri.uv, V, tri.faces)
     K = fit.centres.shape[1]
-    nbr, _ = padded_neighbours(tri.uv, tri.faces, 3, wider=outline_vertices(tri.faces, tri.n_vertices))
+    nbr, _ = padded_neighbours(tri.uv, tri.faces, 3, wider=outline_vertex_mask(tri.faces, tri.n_vertices))
     rng = np.random.default_rng(5)
     for v in range(tri.n_vertices):
         valid = np.concatenate([[True], nbr[v] >= 0])[:K]
