@@ -36,7 +36,7 @@ import lineax as lx
 import numpy as np
 import scipy.sparse as sp
 from trispline.spline.util.memory import available_memory, format_bytes
-from trispline.spline.util.spd import SPD_PARDISO_MIN, point_pypardiso_at_mkl
+from trispline.spline.util.spd import SPD_PARDISO_MIN, point_pypardiso_at_mkl, spd_backend
 
 from .errors import FactorMemoryError, X64Error
 from .progress import Report, silent
@@ -74,11 +74,10 @@ def _pick_backend(requested: str | None, n: int) -> str:
         raise ValueError(f"unknown solver backend {want!r}; choose from auto, {', '.join(BACKENDS)}")
     if want != "auto":
         return want
-    if n >= PARDISO_MIN_UNKNOWNS and importlib.util.find_spec("pypardiso") is not None:
-        return "pardiso"
-    if importlib.util.find_spec("cholespy") is not None:
-        return "cholespy"
-    return "splu"  # pragma: no cover - cholespy is a dependency
+    choice = spd_backend(None, n)  # the same rule as the spline layer's SPD solves
+    if choice == "cholespy" and importlib.util.find_spec("cholespy") is None:
+        return "splu"  # pragma: no cover - cholespy is a dependency
+    return choice
 
 
 def symmetric_from_upper(U: sp.spmatrix) -> sp.csr_array:

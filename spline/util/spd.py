@@ -15,7 +15,7 @@ import os
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["SPD_BACKENDS", "SPD_PARDISO_MIN", "point_pypardiso_at_mkl", "solve_spd"]
+__all__ = ["SPD_BACKENDS", "SPD_PARDISO_MIN", "point_pypardiso_at_mkl", "solve_spd", "spd_backend"]
 
 #: The backends of :func:`solve_spd`.
 SPD_BACKENDS = ("pardiso", "cholespy")
@@ -44,8 +44,9 @@ def point_pypardiso_at_mkl() -> None:
         os.environ["PYPARDISO_MKL_RT"] = found
 
 
-def _backend(requested: str | None, n: int) -> str:
-    """The backend for ``n`` unknowns: ``requested``, or PARDISO from :data:`SPD_PARDISO_MIN` when installed."""
+def spd_backend(requested: str | None, n: int) -> str:
+    """The backend for ``n`` unknowns: ``requested``, or PARDISO from :data:`SPD_PARDISO_MIN` when
+    installed, else cholespy (one rule for both layers: ``fit.solve`` asks it too)."""
     if requested is not None:
         if requested not in SPD_BACKENDS:
             raise ValueError(f"unknown backend {requested!r}; choose from {', '.join(SPD_BACKENDS)}")
@@ -66,7 +67,7 @@ def solve_spd(A: sp.spmatrix, b: np.ndarray, *, backend: str | None = None) -> n
     U = sp.triu(sp.csr_matrix(A, dtype=np.float64), format="csr")
     U.sum_duplicates()
     U.sort_indices()
-    if _backend(backend, n) == "pardiso":
+    if spd_backend(backend, n) == "pardiso":
         point_pypardiso_at_mkl()  # before the import: importing pypardiso makes a solver
         import pypardiso
 
