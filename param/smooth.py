@@ -21,6 +21,14 @@ The smooth map under it is recovered by local regression:
 Each fit is a fixed linear combination of the neighbours' old uv, so a map that is a
 polynomial of the fit's degree in the local coordinates (a similarity, an affine map) is
 reproduced exactly. All vertices are fitted together, in chunks of batched small solves.
+
+One such pass keeps about half of a vertex-to-vertex jitter. By default (``method="global"``,
+:data:`METHOD`) the pass is followed by sparse solves for the map nearest it whose fits'
+residuals ``(I - S) uv`` are small (``S``: the fits as a matrix): each boundary loop alone
+along itself (corners held; a vertex it would move too far keeps the pass's uv), then the
+interior with the outline held. A map the fits reproduce has no residual and comes back as it
+was. Where the solved map folds a face, the pass's map is used instead.
+
 The result is checked with :func:`~trispline.param.distortion.fold_mask`: the vertices of a
 folded face take back their old uv (a few rounds); if folds remain, the map is returned
 unchanged.
@@ -62,15 +70,20 @@ BOUNDARY_MAX_MOVE = 0.03
 #: 3 were more accurate on 22 of 24 analytic cases, up to 1.9x, but gave the camel head 4 patches above
 #: 20x the data's largest curvature; so one).
 PASSES = 1
-#: How :func:`smooth_uv` smooths the interior by default: ``"global"``, the map nearest the one-pass
-#: map whose interior fits' residuals ``(I - S) uv`` are :data:`GLOBAL_WEIGHT` times more costly (one
-#: sparse solve; the outline from one pass of its loops' fits, then held), or ``"local"``, :data:`PASSES`
-#: rounds of the fits. Measured in docs/param.md ("Smoothing"): the global map won 22 of the 24 analytic
-#: cases of ``bench_accuracy3d.py`` (torus 3,229 11x -> 6x its true-uv fit's error, cap 3,205 1.9x -> 1.1x).
+#: How :func:`smooth_uv` smooths by default: ``"global"``, the map nearest the one-pass map whose fits'
+#: residuals ``(I - S) uv`` are :data:`GLOBAL_WEIGHT` (:data:`GLOBAL_OUTLINE_WEIGHT` along the loops)
+#: times more costly (sparse solves: each loop alone, then the interior with the outline held), or
+#: ``"local"``, :data:`PASSES` rounds of the fits. Measured in docs/param.md ("The global solve"): the
+#: global map won 21 of the 24 analytic cases of ``bench_accuracy3d.py`` (torus 3,229 11x -> 2.5x its
+#: true-uv fit's error, cap 3,205 1.9x -> 0.63x, Enneper 3,205 25x -> 7.9x).
 METHOD = "global"
 #: Weight of the interior fits' residuals against the distance to the one-pass map (100: torus 812
 #: 2.15e-6 against 2.46e-6 at 10, 2.26e-6 at 1,000, 2.57e-6 at 1e6; Enneper 3,205 best at 100 too).
 GLOBAL_WEIGHT = 100.0
+#: The same weight for each boundary loop's fits along it, solved first (the loop alone; kept only where
+#: it moves no vertex more than :data:`BOUNDARY_MAX_MOVE`: the monkey saddle's outline at 798 vertices
+#: moved up to 8% of an edge, and capping vertex by vertex made the fit 5.9x worse).
+GLOBAL_OUTLINE_WEIGHT = 100.0
 #: Above this many vertices the default is ``"local"``: the solve's matrix couples 4-rings (60
 #: entries a row), 4.9 s at 20k vertices under load 9 (PARDISO; CHOLMOD 18 s), against 1.5 s for a pass.
 GLOBAL_MAX_VERTICES = 60_000
@@ -190,9 +203,19 @@ def loop_corners(P: np.ndarray) -> np.ndarray:
 
 def _boundary(V: np.ndarray, uv: np.ndarray, loop: np.ndarray, degree: int) -> np.ndarray:
     """New uv ``(n, 2)`` of the vertices of ``loop (n,)``: fits along the loop, none across a corner."""
+    nbr, weights = _boundary_weights(V, loop, degree)
+    return np.matmul(weights[:, None, :], uv[nbr])[:, 0]
+
+
+def _boundary_weights(V: np.ndarray, loop: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(nbr (n, 2 R + 1), s (n, 2 R + 1))``: the neighbours along ``loop (n,)`` and weights of each of
+    its vertices' fits (``R`` = :data:`BOUNDARY_REACH`, none across a corner); a corner, and every
+    vertex of a loop too short for the fits, weighs only itself."""
     n = len(loop)
+    own = np.zeros((n, 2 * BOUNDARY_REACH + 1))
+    own[:, BOUNDARY_REACH] = 1.0
     if n < 2 * BOUNDARY_REACH + 1:
-        return uv[loop]
+        return np.repeat(loop[:, None], 2 * BOUNDARY_REACH + 1, 1), own
     P = V[loop]
     seg = np.linalg.norm(np.roll(P, -1, 0) - P, axis=1)  # seg[i]: i -> i + 1
     arc = np.concatenate([[0.0], np.cumsum(seg)])
@@ -208,8 +231,7 @@ def _boundary(V: np.ndarray, uv: np.ndarray, loop: np.ndarray, degree: int) -> n
     h = 0.5 * (seg + np.roll(seg, 1))
     w = np.where(ok, np.exp(-(s / (h[:, None] * BOUNDARY_REACH)) ** 2), 0.0)
     weights = fit_weights((s / h[:, None])[..., None], w, degree)
-    new = np.matmul(weights[:, None, :], uv[loop[i % n]])[:, 0]
-    return np.where(corner[:, None], uv[loop], new)
+    return loop[i % n], np.where(corner[:, None], own, weights)
 
 
 def _operator(V: np.ndarray, nbr: np.ndarray, h: np.ndarray, degree: int) -> sp.csr_matrix:
@@ -233,6 +255,8 @@ def _global(S: sp.csr_matrix, uv: np.ndarray, fixed: np.ndarray, weight: float) 
     (which stay at their ``uv``); one sparse SPD solve, both coordinates together."""
     nv = len(uv)
     free = ~fixed
+    if not free.any():
+        return uv.copy()
     D = (sp.identity(nv, format="csr") - S)[free]
     Df, Dc = D[:, free], D[:, fixed]
     A = weight * (Df.T @ Df) + sp.identity(int(free.sum()), format="csr")
@@ -240,6 +264,16 @@ def _global(S: sp.csr_matrix, uv: np.ndarray, fixed: np.ndarray, weight: float) 
     out = uv.copy()
     out[free] = solve_spd(A.tocsr(), b, backend="pardiso" if _HAVE_PARDISO else None)
     return out
+
+
+def _loop_operator(V: np.ndarray, loop: np.ndarray, degree: int) -> tuple[sp.csr_matrix, np.ndarray]:
+    """``(S (n, n), corners (n,) bool)``: the fits along ``loop (n,)`` as a matrix over its vertices."""
+    nbr, w = _boundary_weights(V, loop, degree)
+    pos = np.empty(int(loop.max()) + 1, np.int64)
+    pos[loop] = np.arange(len(loop))
+    n = len(loop)
+    S = sp.csr_matrix((w.ravel(), (np.repeat(np.arange(n), nbr.shape[1]), pos[nbr.ravel()])), shape=(n, n))
+    return S, loop_corners(V[loop]) if n >= 2 * BOUNDARY_REACH + 1 else np.ones(n, bool)
 
 
 def _uv_edge_length(F: np.ndarray, uv: np.ndarray) -> np.ndarray:
@@ -288,11 +322,16 @@ def smooth_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, loops: list[np.ndarr
             new[keep] = uv[keep]
     if method == "global":
         held = np.zeros(nv, bool)
-        for loop in loops:
-            held[loop] = True
         if keep is not None:
             held[keep] = True
-        solved = _global(_operator(V, nbr, h, degree), new, held, GLOBAL_WEIGHT)
+        solved = new.copy()
+        for loop in loops:  # each loop's own solve along it (corners held), kept only if it moves no
+            S, corner = _loop_operator(V, loop, degree)  # vertex too far; then the loop held
+            b = _global(S, new[loop], corner | held[loop], GLOBAL_OUTLINE_WEIGHT)
+            if (np.linalg.norm(b - uv[loop], axis=1) <= BOUNDARY_MAX_MOVE * huv[loop]).all():
+                solved[loop] = b
+            held[loop] = True
+        solved = _global(_operator(V, nbr, h, degree), solved, held, GLOBAL_WEIGHT)
         if np.logical_or(*fold_mask(solved, F)).any():  # the one pass instead (reverted below as before)
             method = "local"
         else:
