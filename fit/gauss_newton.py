@@ -27,7 +27,7 @@ import optimistix as optx
 from trispline.spline.tolerances import CONVERGED_GRAD_RTOL, GN_ATOL, GN_RTOL
 
 from . import energy as en
-from .solve import FactorSolver, SparseCholesky, release_free_heap
+from .solve import FactorSolver, SparseCholesky, _apply_factor, release_free_heap
 
 __all__ = ["QuadraticStep", "iterate"]
 
@@ -40,21 +40,29 @@ def _residuals_aux(x: jax.Array, args: dict) -> tuple[dict[str, jax.Array], None
     return en.residuals(x, args), None
 
 
+def _half_sum_squares(x: jax.Array, args: dict) -> jax.Array:
+    return 0.5 * sum(jnp.sum(r * r) for r in en.residuals(x, args).values())
+
+
 def _one_step(x0: jax.Array, args: dict, handle: jax.Array) -> tuple[jax.Array, dict]:
-    """One optimistix Gauss--Newton step from ``x0 (k, 3)`` and the energies at its result.
+    """One optimistix Gauss--Newton step from ``x0 (k, 3)``, refined once, and the energies at its result.
 
     The solver's own ``init`` and ``step``, without ``optimistix.least_squares``'s loop:
     the loop would evaluate the step's result only in a second step (to test convergence),
     which a quadratic does not need, and its carried state cost 190 MB of XLA temporaries
-    at 100k faces (769 against 581 MB). The result is the proposed point ``state.y_eval``.
-    The step's linear solve is refined once against ``J`` (see ``FactorSolver.refine``),
-    so linear data come back to rounding.
+    at 100k faces (769 against 581 MB). The step's proposed point ``x1 = state.y_eval`` is
+    refined once against ``J`` with the same factor, ``x = x1 - H^{-1} J^T r(x1)``, so linear
+    data come back to rounding: the refinement of ``FactorSolver(refine=1)`` (there
+    ``J^T (r(x0) - J y)``, for a linear ``r`` the same ``J^T r(x1)``), here taken after the step,
+    where the step's residuals at ``x0`` are dead: at 100k faces 412 against 510 MiB of XLA
+    temporaries, the control points equal to ~1e-15 of their size.
     """
-    solver = _gauss_newton(FactorSolver(handle, mode="direct", refine=1))
+    solver = _gauss_newton(FactorSolver(handle, mode="direct"))
     f_struct = jax.eval_shape(en.residuals, x0, args)
     state = solver.init(_residuals_aux, x0, args, {}, f_struct, None, frozenset())
     _, state, _ = solver.step(_residuals_aux, x0, args, {}, state, frozenset())
-    x = state.y_eval
+    x1 = state.y_eval
+    x = x1 - _apply_factor(handle, jax.grad(_half_sum_squares)(x1, args))
     return x, en.energies(x, args)
 
 
@@ -62,8 +70,15 @@ def _one_step(x0: jax.Array, args: dict, handle: jax.Array) -> tuple[jax.Array, 
 #: its memory-optimised scheduler (at 100k faces 508 against 613 MB of temporaries) and no
 #: XNNPACK/YNNPACK dot fusions (their packed operands lie outside those temporaries: the process's
 #: rise during the step 0.58 against 0.74-0.78 GB; 10% less CPU; other roundings of the dots, the step
-#: equal to 2e-13 of its largest value), then the scheduler alone (bit-identical to the default compile)
+#: equal to 2e-13 of its largest value), then the scheduler alone (bit-identical to the default compile).
+#: First of all also without XLA's common-subexpression pass: it merged the step's equal zero arrays (the
+#: bases of the transposed gathers' scatters, 93 MB at 100k faces), so each scatter wrote into a copy
+#: while the one broadcast stayed alive to the end (with the refinement after the step: 282.6 against
+#: 412.0 MiB of temporaries at 100k faces; the same numbers)
 CPU_COMPILER_OPTIONS: tuple[dict[str, str], ...] = (
+    {"xla_cpu_scheduler_type": "CPU_SCHEDULER_TYPE_MEMORY_OPTIMIZED",
+     "xla_cpu_experimental_ynn_fusion_type": "", "xla_cpu_experimental_xnn_fusion_type": "",
+     "xla_disable_hlo_passes": "cse"},
     {"xla_cpu_scheduler_type": "CPU_SCHEDULER_TYPE_MEMORY_OPTIMIZED",
      "xla_cpu_experimental_ynn_fusion_type": "", "xla_cpu_experimental_xnn_fusion_type": ""},
     {"xla_cpu_scheduler_type": "CPU_SCHEDULER_TYPE_MEMORY_OPTIMIZED"},
@@ -116,10 +131,6 @@ class QuadraticStep:
         gref = float(np.abs(prob.rhs).max()) or 1.0
         ok = float(np.abs(prob.gradient(x)).max()) <= CONVERGED_GRAD_RTOL * gref
         return x, {k: float(v) for k, v in energies.items()}, 1, bool(ok)
-
-
-def _half_sum_squares(x: jax.Array, args: dict) -> jax.Array:
-    return 0.5 * sum(jnp.sum(r * r) for r in en.residuals(x, args).values())
 
 
 _gradient_jit = jax.jit(jax.grad(_half_sum_squares))
