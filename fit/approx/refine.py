@@ -13,7 +13,8 @@ re-triangulates (boundary vertices move chords out toward the scan's outline).
 
 With a robust loss a scan vertex is **rejected** (an outlier: the tolerance does not
 apply to it) when the scan analysis marks it a spike (far off the robust quadric of its
-neighbours, :attr:`~.analysis.ScanAnalysis.spike`) and the fit leaves it farther than
+neighbours, :attr:`~.analysis.ScanAnalysis.spike`; on the outline, also rougher than
+:data:`OUTLINE_REJECT_ROUGHNESS`) and the fit leaves it farther than
 :data:`REJECT_SIGMAS` times the scan's noise away. Both are needed: a coherent region the coarse
 surface cannot follow yet is far from the fit but not a spike, and stays an inlier, so
 refinement fixes it instead of ignoring it. With the plain loss nothing is rejected.
@@ -33,6 +34,11 @@ __all__ = ["Round", "measure", "outline_gaps", "surface_gaps", "pick_vertices", 
 
 #: A spike farther than this many noise standard deviations from the fit is rejected (robust losses only).
 REJECT_SIGMAS = 6.0
+#: ... a scan boundary vertex only with a roughness (local noise levels) of at least this: at a corner of
+#: the outline the scan analysis's leave-one-out residual is large even on clean data (face_gpjs: a
+#: boundary vertex at 5.5, the scan's largest deviation at 2%), a 50-sigma outlier's is 37-51 (generated
+#: scans, sigma 1e-3 and 1e-4).
+OUTLINE_REJECT_ROUGHNESS = 10.0
 #: A round at most multiplies the vertex count by this.
 GROWTH = 2.0
 #: Candidates closer to their face's boundary than this barycentric coordinate are less preferred.
@@ -109,6 +115,8 @@ def measure(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit, located: tuple[np.
     rejected = np.zeros(V.shape[0], bool)
     if robust:
         rejected = dom.analysis.spike & (dev.distance > REJECT_SIGMAS * dom.stats.noise)
+        ids = np.concatenate(dom.loops)
+        rejected[ids] &= dom.analysis.roughness[ids] >= OUTLINE_REJECT_ROUGHNESS
     return Round(dom=dom, fit=fit, located=located, deviation=dev, rejected=rejected,
                  inliers=summary(dev.distance, ~rejected), seconds=seconds,
                  outline=outline_gaps(dom, V, fit) if outline else None,

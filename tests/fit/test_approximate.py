@@ -16,9 +16,10 @@ from trispline.fit.approx.fit import (  # noqa: E402
     BEND_WEIGHT_RANGE, DATA_WEIGHTS, EXTRAPOLATION, OUTLINE_DATA_WEIGHT, bend_face_weights, corrected_parameters,
     cross_validated_weight, outline_faces, outline_factor, quadric_reference,
 )
+from trispline.fit.approx.analysis import SPIKE_LEVELS  # noqa: E402
 from trispline.fit.approx.pipeline import loss_scale  # noqa: E402
 from trispline.fit.approx.deviation import surface_deviation  # noqa: E402
-from trispline.fit.approx.refine import measure, outline_gaps  # noqa: E402
+from trispline.fit.approx.refine import OUTLINE_REJECT_ROUGHNESS, measure, outline_gaps  # noqa: E402
 from trispline.fit.datasets.truth import grid_with_hole, truth_scan  # noqa: E402
 from trispline.fit.energy import robust  # noqa: E402
 from trispline.fit.energy.data import DataPoints  # noqa: E402
@@ -385,3 +386,21 @@ def test_surface_gaps_see_a_patch_over_the_hole():
     assert state.face_gap[covered].max() <= 1e-9 * diag  # the plane is exact where the scan is under it
     assert state.face_gap.max() > 1e-4 * diag  # a chord across the round hole: surface with no scan under it
     assert state.worst >= state.face_gap.max()
+
+
+def test_outline_vertices_are_rejected_only_when_rough():
+    import dataclasses
+
+    s = truth_scan("bumps", 3000, sigma=1e-3, seed=7)
+    res = approximate_surface(s.V, s.F, uv=s.params, n_vertices=60, loss="huber", max_rounds=1)
+    dom = res.domain
+    i = int(dom.loops[0][len(dom.loops[0]) // 3])  # a scan boundary vertex, moved 30 noise levels off
+    V = s.V.copy()
+    V[i, 2] += 30 * dom.stats.noise
+    fit = fit_domain(dom, V, loss="huber", scale=30 * dom.stats.noise)
+    for rough, rejected in ((0.5 * (SPIKE_LEVELS + OUTLINE_REJECT_ROUGHNESS), False), (2 * OUTLINE_REJECT_ROUGHNESS, True)):
+        r = dom.analysis.roughness.copy()
+        r[i] = rough  # a spike either way
+        d = dataclasses.replace(dom, analysis=dataclasses.replace(dom.analysis, roughness=r))
+        assert d.analysis.spike[i]
+        assert measure(d, V, fit, scan_parameters(dom), True).rejected[i] == rejected
