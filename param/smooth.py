@@ -85,8 +85,10 @@ GLOBAL_WEIGHT = 100.0
 #: moved up to 8% of an edge, and capping vertex by vertex made the fit 5.9x worse).
 GLOBAL_OUTLINE_WEIGHT = 100.0
 #: Above this many vertices the default is ``"local"``: the solve's matrix couples 4-rings (60
-#: entries a row), 4.9 s at 20k vertices under load 9 (PARDISO; CHOLMOD 18 s), against 1.5 s for a pass.
-GLOBAL_MAX_VERTICES = 60_000
+#: entries a row), 4.9 s at 20k vertices under load 9 (PARDISO; CHOLMOD 18 s), against 1.5 s for a pass;
+#: at 49k vertices (a 100k-face scan, load 5) 2.6 s, the harmonic map's parameterization 1.6 -> 6.4 s,
+#: which would cost the interpolating fit's and the approximation's speed targets (issues 19, 15).
+GLOBAL_MAX_VERTICES = 20_000
 #: PARDISO where installed (the matrix's fill makes CHOLMOD 3.6x slower at 20k vertices).
 _HAVE_PARDISO = importlib.util.find_spec("pypardiso") is not None
 #: Rounds of reverting the vertices of folded faces before the map is returned unchanged.
