@@ -127,12 +127,18 @@ def _patch_entries(A: sp.csr_array, blocks: np.ndarray, frame_pos: np.ndarray, f
     return out
 
 
-def _upper_matrix(A: sp.csr_array, blocks: np.ndarray, frame_pos: np.ndarray, frame_weight: np.ndarray,
-                  report: Report | None = None, incidence: sp.csr_array | None = None) -> sp.csr_array:
-    """``(k, k)`` CSR upper triangle (diagonal included) of ``A^T blkdiag(blocks) A + diag_frames``."""
+def _upper_matrix(A: sp.csr_array, parts: NormalParts, frame_pos: np.ndarray, report: Report | None = None,
+                  incidence: sp.csr_array | None = None, release: bool = False) -> sp.csr_array:
+    """``(k, k)`` CSR upper triangle (diagonal included) of ``A^T blkdiag(parts.blocks) A + diag_frames``.
+
+    ``release``: drop ``parts.blocks`` (set to None) once their entries are written, before the
+    entries become CSR (at 100k faces the blocks are 337 MiB, the COO entries 274 and the CSR
+    conversion's arrays 205: the assembly's peak)."""
     k = A.shape[1]
-    rows, cols, vals = _patch_entries(A, blocks, np.asarray(frame_pos), np.asarray(frame_weight, float),
+    rows, cols, vals = _patch_entries(A, parts.blocks, np.asarray(frame_pos), np.asarray(parts.frame_weight, float),
                                       span(report, 0.0, 0.6), incidence)
+    if release:
+        parts.blocks = None
     U = sp.csr_array((vals, (rows, cols)), shape=(k, k))
     del rows, cols, vals
     U.sum_duplicates()
@@ -164,7 +170,7 @@ def upper_pattern(A: sp.csr_array, incidence: sp.csr_array | None = None) -> sp.
 
 def normal_equations(A: sp.sparray | sp.spmatrix, c: np.ndarray, frame_pos: np.ndarray,
                      parts: NormalParts, *, upper: bool = False, report: Report | None = None,
-                     incidence: sp.csr_array | None = None) -> tuple[sp.csr_array, np.ndarray]:
+                     incidence: sp.csr_array | None = None, release: bool = False) -> tuple[sp.csr_array, np.ndarray]:
     """``H (k, k)`` and ``rhs (k, d)`` of the linear terms (see the module docstring).
 
     Parameters
@@ -178,6 +184,8 @@ def normal_equations(A: sp.sparray | sp.spmatrix, c: np.ndarray, frame_pos: np.n
     report : progress as chunks of patches finish (:mod:`trispline.fit.progress`)
     incidence : (n, k) :func:`patch_unknowns` of ``A`` (sorted indices), where the caller made it
         already (:func:`upper_pattern` needs it too); else made here
+    release : consume ``parts``: its ``blocks`` and ``patch_rhs`` are set to None once read, so that
+        the blocks (337 MiB at 100k faces) are freed before the entries become CSR
 
     Returns
     -------
@@ -186,8 +194,11 @@ def normal_equations(A: sp.sparray | sp.spmatrix, c: np.ndarray, frame_pos: np.n
     A = sp.csr_array(A)
     A.sort_indices()
     n, d = parts.blocks.shape[0], parts.patch_rhs.shape[2]
-    U = _upper_matrix(A, parts.blocks, frame_pos, parts.frame_weight, report, incidence)
     r = parts.patch_rhs - np.matmul(parts.blocks, np.asarray(c).reshape(n, NCTRL, d))
     rhs = np.asarray(A.T @ r.reshape(n * NCTRL, d))
+    del r
     np.add.at(rhs, frame_pos, parts.frame_rhs)
+    if release:
+        parts.patch_rhs = None
+    U = _upper_matrix(A, parts, frame_pos, report, incidence, release)
     return (U if upper else symmetric_from_upper(U)), rhs

@@ -100,7 +100,7 @@ def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
     parts = normal_parts(terms, space.tri.n_faces, frame_pos.size)
     span(report, 0.0, 0.8)(1.0)
     H_upper, rhs = normal_equations(A, c0[np.asarray(space.point_index).ravel()], frame_pos, parts, upper=True,
-                                    report=span(report, 0.8, 0.95), incidence=incidence)
+                                    report=span(report, 0.8, 0.95), incidence=incidence, release=True)
     del incidence
 
     Mc = M_r.tocoo()
