@@ -97,6 +97,10 @@ def test_per_patch_assembly_equals_the_triple_product(problem):
     assert prob.H_nnz == H.nnz
     x = np.random.default_rng(0).normal(size=(k, 3))
     np.testing.assert_allclose(prob.gradient(x), H_ref @ x - prob.rhs, rtol=0, atol=1e-12 * scale * np.abs(x).max())
+    U_kept, rhs_kept = U, rhs
+    U, rhs = en.normal_equations(A, c, frame_pos, parts, upper=True, release=True)  # consumes parts
+    assert parts.blocks is None and parts.patch_rhs is None
+    assert (U != U_kept).nnz == 0 and np.array_equal(rhs, rhs_kept)  # the same numbers, bit for bit
 
 
 def test_local_diagonals_through_flat_views_equal_the_plain_indexing(problem):
