@@ -5,8 +5,11 @@
 
 Every scan vertex is located in the coarse domain at its uv (:meth:`CoarseDomain.locate`);
 one outside the coarse polygon (between a boundary chord and the scan's outline) keeps
-its own uv as an extrapolation of the nearest boundary patch, unless that is farther
-than :data:`EXTRAPOLATION` outside it in barycentric terms (then it sits on the chord).
+its own uv as an extrapolation of the boundary patch that reaches it with the least
+extrapolation (:meth:`~.locate.ClampedLocator.extension`; not simply the nearest edge's,
+whose patch can be far off beyond a boundary vertex), unless that is farther than
+:data:`EXTRAPOLATION` outside it in barycentric terms (then it sits on the chord, a
+parameter a polynomial's data do not fit).
 The problem (:mod:`.problem`) is solved in coordinates normalised to the scan's size:
 the plain loss by one solve with the host factor of its normal matrix (its exact
 minimum; :mod:`trispline.fit.solve`), a robust loss by optimistix Gauss--Newton started
@@ -94,9 +97,9 @@ def scan_parameters(dom: CoarseDomain) -> tuple[np.ndarray, np.ndarray]:
     face, bary = hit.face.copy(), hit.bary.copy()
     out = np.flatnonzero(hit.clamped)
     if out.size:
-        own = dom.locator.locator.bary_in(face[out], uv[out])
+        ext, own = dom.locator.extension(uv[out])
         near = own.min(1) >= EXTRAPOLATION
-        bary[out[near]] = own[near]
+        face[out[near]], bary[out[near]] = ext[near], own[near]
     return face, bary
 
 

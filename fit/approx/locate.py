@@ -110,6 +110,25 @@ class ClampedLocator:
             t[q], foot[q], cand[q] = tq[np.arange(q.size), jq], fq[np.arange(q.size), jq], jq
         return self.boundary_edges[cand], t, foot
 
+    def extension(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``face (n,)``, ``bary (n, 3)``: for uv points outside the domain, the boundary face whose patch
+        extends to each with the least extrapolation (the largest smallest barycentric coordinate of the
+        point's own uv), among the faces of the :data:`NEAREST_EDGES` boundary edges of nearest midpoints.
+
+        Not the nearest edge's face: a point in the wedge beyond a boundary vertex is equally near both
+        edges there (a tie), and their faces may reach it only far out (barycentric -0.95 on the
+        rectangle-with-hole at 30 vertices) where a third edge's face, a little farther, covers it
+        nearly (-0.09).
+        """
+        p = as_array(points, "points", (None, 2), finite=True)
+        k = min(NEAREST_EDGES, self._a.shape[0])
+        cand = self._tree.query(p, k=k)[1].reshape(p.shape[0], k)
+        faces = self._face[cand]  # (n, k)
+        bary = self.locator.bary_in(faces.ravel(), np.repeat(p, k, axis=0)).reshape(p.shape[0], k, 3)
+        j = bary.min(2).argmax(1)
+        rows = np.arange(p.shape[0])
+        return faces[rows, j], bary[rows, j]
+
     def turn(self, edge: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """At an end (``t`` 0 or 1) of boundary ``edge (n,)``: the other boundary edge there and its ``t`` at that vertex."""
         ends = self.tri.edges[edge]
