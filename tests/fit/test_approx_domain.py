@@ -201,6 +201,24 @@ def test_clamped_locator_projects_exactly():
     np.testing.assert_allclose(uv2, foot, atol=1e-15)
 
 
+def test_extension_takes_the_boundary_patch_of_least_extrapolation():
+    """A point outside the domain extends the boundary face that reaches it with the largest smallest
+    barycentric coordinate: its own uv (a polynomial's data stay exact there), never farther out than in
+    the nearest edge's face, and much nearer for points beyond a boundary vertex or a sliver."""
+    uv, F = domains.random_delaunay(400, holes=2, seed=7)
+    loc = ClampedLocator(uv, F)
+    p = np.random.default_rng(0).uniform(-0.5, 1.5, (3000, 2))
+    hit = loc(p)
+    q = p[hit.clamped]
+    face, bary = loc.extension(q)
+    np.testing.assert_allclose(bary.sum(1), 1.0, atol=1e-12)
+    np.testing.assert_allclose(np.einsum("nk,nkd->nd", bary, uv[F[face]]), q, atol=1e-12)
+    nearest = loc.locator.bary_in(hit.face[hit.clamped], q).min(1)
+    assert (bary.min(1) >= nearest - 1e-12).all()
+    close = np.linalg.norm(loc.project(q)[2] - q, axis=1) < 0.02  # just outside the boundary
+    assert (bary.min(1)[close] > nearest[close] + 0.1).sum() >= 5
+
+
 def test_insert_adds_scan_vertices_and_keeps_the_boundary():
     scan = truth_scan("bumps", 20_000, sigma=1e-3, seed=8)
     dom = coarse_domain(scan.V, scan.F, scan.params, n_vertices=300)
