@@ -27,7 +27,7 @@ import optimistix as optx
 from trispline.spline.tolerances import CONVERGED_GRAD_RTOL, GN_ATOL, GN_RTOL
 
 from . import energy as en
-from .solve import FactorSolver, SparseCholesky, _apply_factor, release_free_heap
+from .solve import FactorSolver, SparseCholesky, apply_factor, release_free_heap
 
 __all__ = ["QuadraticStep", "iterate"]
 
@@ -62,7 +62,7 @@ def _one_step(x0: jax.Array, args: dict, handle: jax.Array) -> tuple[jax.Array, 
     state = solver.init(_residuals_aux, x0, args, {}, f_struct, None, frozenset())
     _, state, _ = solver.step(_residuals_aux, x0, args, {}, state, frozenset())
     x1 = state.y_eval
-    x = x1 - _apply_factor(handle, jax.grad(_half_sum_squares)(x1, args))
+    x = x1 - apply_factor(handle, jax.grad(_half_sum_squares)(x1, args))
     return x, en.energies(x, args)
 
 

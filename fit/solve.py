@@ -42,7 +42,7 @@ from .errors import FactorMemoryError, X64Error
 from .progress import Report, silent
 
 __all__ = ["SparseCholesky", "PatternAnalysis", "FactorSolver", "require_x64", "symmetric_from_upper", "estimate_factor_bytes",
-           "pardiso_factor_bytes", "check_memory", "release_free_heap"]
+           "pardiso_factor_bytes", "check_memory", "release_free_heap", "apply_factor"]
 
 #: Live factors by handle (weak: a factor lives as long as its owner keeps it).
 _FACTORS: "weakref.WeakValueDictionary[int, SparseCholesky]" = weakref.WeakValueDictionary()
@@ -320,7 +320,7 @@ class SparseCholesky:
 
     def jax_solve(self, b: jax.Array) -> jax.Array:
         """``H^{-1} b`` inside traced JAX code (host callback)."""
-        return _apply_factor(jnp.asarray(self.handle), b)
+        return apply_factor(jnp.asarray(self.handle), b)
 
 
 class PatternAnalysis:
@@ -381,7 +381,7 @@ def _host_solve(handle: np.ndarray, b: np.ndarray) -> np.ndarray:
     return _FACTORS[int(handle)].solve(np.asarray(b, dtype=np.float64))
 
 
-def _apply_factor(handle: jax.Array, b: jax.Array) -> jax.Array:
+def apply_factor(handle: jax.Array, b: jax.Array) -> jax.Array:
     """``H^{-1} b`` for ``b (n, ...)`` with the factor ``handle``, from traced code."""
     x = jax.pure_callback(_host_solve, jax.ShapeDtypeStruct((b.shape[0], b.size // max(b.shape[0], 1)), jnp.float64),
                           handle, b.reshape(b.shape[0], -1), vmap_method="sequential")
@@ -439,7 +439,7 @@ class FactorSolver(lx.AbstractLinearSolver):
         J = state
         JT = J.transpose()
         g = JT.mv(vector)
-        apply_h_inv = lambda v: _apply_factor(self.handle, v)  # noqa: E731
+        apply_h_inv = lambda v: apply_factor(self.handle, v)  # noqa: E731
         if self.mode == "direct":
             y = apply_h_inv(g)
             for _ in range(self.refine):
