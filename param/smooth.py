@@ -173,10 +173,17 @@ def _neighbourhoods(V: np.ndarray, F: np.ndarray, rings: int) -> tuple[np.ndarra
     return nbr, h
 
 
-def _interior(V: np.ndarray, uv: np.ndarray, nbr: np.ndarray, h: np.ndarray, degree: int) -> np.ndarray:
-    """New uv ``(n, 2)`` of the vertices ``nbr[:, 0]`` from their neighbourhoods ``nbr (n, m)``."""
-    nbr, s = _interior_weights(V, nbr, h, degree)
-    return np.matmul(s[:, None, :], gather.rows(uv, np.maximum(nbr, 0)))[:, 0]
+def _interior_fits(V: np.ndarray, nbr: np.ndarray, h: np.ndarray, degree: int):
+    """Per chunk of :data:`CHUNK` vertices ``(sl, nb, s)``: the slice and :func:`_interior_weights`
+    of its vertices (the weights depend on the surface alone, not on the uv they are applied to)."""
+    for lo in range(0, len(V), CHUNK):
+        sl = slice(lo, min(lo + CHUNK, len(V)))
+        yield (sl, *_interior_weights(V, nbr[sl], h[sl], degree))
+
+
+def _interior(uv: np.ndarray, nb: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """New uv ``(n, 2)`` of the vertices ``nb[:, 0]``: their fits' weights ``s (n, k)`` over ``uv``."""
+    return np.matmul(s[:, None, :], gather.rows(uv, np.maximum(nb, 0)))[:, 0]
 
 
 def _interior_weights(V: np.ndarray, nbr: np.ndarray, h: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:
@@ -236,13 +243,12 @@ def _boundary_weights(V: np.ndarray, loop: np.ndarray, degree: int) -> tuple[np.
     return loop[i % n], np.where(corner[:, None], own, weights)
 
 
-def _operator(V: np.ndarray, nbr: np.ndarray, h: np.ndarray, degree: int) -> sp.csr_matrix:
-    """``S (nv, nv)``: row ``v`` the weights of ``v``'s interior fit, so that ``S @ uv`` is one pass of
-    the interior fits (the outline's rows too: :func:`_global` uses only the rows of free vertices)."""
-    nv = len(V)
+def _operator(fits: list, nv: int) -> sp.csr_matrix:
+    """``S (nv, nv)``: row ``v`` the weights of ``v``'s interior fit (``fits``: :func:`_interior_fits`),
+    so that ``S @ uv`` is one pass of the interior fits (the outline's rows too: :func:`_global` uses
+    only the rows of free vertices)."""
     rows, cols, vals = [], [], []
-    for lo in range(0, nv, CHUNK):
-        nb, s = _interior_weights(V, nbr[lo:lo + CHUNK], h[lo:lo + CHUNK], degree)
+    for _, nb, s in fits:
         ok = nb >= 0
         rows.append(np.broadcast_to(nb[:, :1], nb.shape)[ok])
         cols.append(nb[ok])
@@ -310,12 +316,14 @@ def smooth_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, loops: list[np.ndarr
         raise ValueError(f"unknown smoothing method {method!r}; choose 'global' or 'local'")
     nbr, h = _neighbourhoods(V, F, rings)
     huv = _uv_edge_length(F, uv)
+    # the global solve needs the fits again as a matrix: computed once then (<= GLOBAL_MAX_VERTICES
+    # vertices by default); the local passes compute them chunk by chunk, without holding them
+    fits = list(_interior_fits(V, nbr, h, degree)) if method == "global" else None
     new = uv
     for k in range(1 if method == "global" else PASSES if passes is None else passes):
         last, new = new, np.empty_like(uv)
-        for lo in range(0, nv, CHUNK):
-            sl = slice(lo, min(lo + CHUNK, nv))
-            new[sl] = _interior(V, last, nbr[sl], h[sl], degree)
+        for sl, nb, s in fits or _interior_fits(V, nbr, h, degree):
+            new[sl] = _interior(last, nb, s)
         for loop in loops:  # the outline in the first pass only; a vertex moved too far keeps its uv
             b = _boundary(V, last, loop, degree) if k == 0 else last[loop]
             far = np.linalg.norm(b - uv[loop], axis=1) > BOUNDARY_MAX_MOVE * huv[loop]
@@ -333,7 +341,7 @@ def smooth_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, loops: list[np.ndarr
             if (np.linalg.norm(b - uv[loop], axis=1) <= BOUNDARY_MAX_MOVE * huv[loop]).all():
                 solved[loop] = b
             held[loop] = True
-        solved = _global(_operator(V, nbr, h, degree), solved, held, GLOBAL_WEIGHT)
+        solved = _global(_operator(fits, nv), solved, held, GLOBAL_WEIGHT)
         if np.logical_or(*fold_mask(solved, F)).any():  # the one pass instead (reverted below as before)
             method = "local"
         else:

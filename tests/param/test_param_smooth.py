@@ -155,9 +155,9 @@ def _displace(vertex: int, by: float):
     """An ``_interior`` that moves ``vertex`` by ``by`` (folding its faces), everything else as before."""
     real = smooth_module._interior
 
-    def fake(V, uv, nbr, h, degree):
-        out = real(V, uv, nbr, h, degree)
-        out[nbr[:, 0] == vertex] += by
+    def fake(uv, nb, s):
+        out = real(uv, nb, s)
+        out[nb[:, 0] == vertex] += by
         return out
     return fake
 
