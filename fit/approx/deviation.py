@@ -31,7 +31,7 @@ from .locate import ClampedLocator
 if TYPE_CHECKING:  # pragma: no cover
     from trispline.spline.surface import SplineSurface
 
-__all__ = ["Deviation", "distance_model", "newton_step", "surface_deviation", "mesh_deviation",
+__all__ = ["Deviation", "distance_model", "newton_step", "surface_deviation", "mesh_deviation", "distance_to_mesh",
            "summary", "triangle_bary"]
 
 #: Newton steps per point at most (quadratic convergence from the tessellation: 2-3 suffice).
@@ -257,9 +257,14 @@ def mesh_deviation(surface: "SplineSurface", V: np.ndarray, F: np.ndarray, *, re
     (``m = V + (r-1) E + (r-1)(r-2)/2 F`` of them) to their exact closest points on the
     scan's triangles.
     """
-    from trispline.param import closest_points  # libigl AABB tree
-
     V = as_array(V, "V", (None, 3), finite=True)
     F = as_array(F, "F", (None, 3), integer=True, min_rows=1)
-    sq, _, _ = closest_points(surface.tessellate(resolution).vertices, V, F)
+    return distance_to_mesh(surface.tessellate(resolution).vertices, V, F)
+
+
+def distance_to_mesh(P: np.ndarray, V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Distance ``(m,)`` from each point ``P (m, 3)`` to its exact closest point on the triangles ``V``, ``F``."""
+    from trispline.param import closest_points  # libigl AABB tree
+
+    sq, _, _ = closest_points(P, V, F)
     return np.sqrt(np.maximum(sq, 0.0))

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .deviation import Deviation, summary, surface_deviation
+from .deviation import Deviation, distance_to_mesh, summary, surface_deviation
 from .domain import MIN_SEPARATION, CoarseDomain, separation
 from .fit import CoarseFit
 
@@ -139,12 +139,9 @@ def outline_gaps(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit) -> np.ndarray
 def surface_gaps(dom: CoarseDomain, V: np.ndarray, F: np.ndarray, fit: CoarseFit) -> np.ndarray:
     """``(f,)`` each coarse face's largest distance from the samples of its patch (the tessellation at
     :data:`GAP_RESOLUTION`) to the scan ``V (n, 3)``, ``F (m, 3)`` (exact closest points on its triangles)."""
-    from trispline.param import closest_points  # libigl AABB tree
-
     mesh = fit.surface.tessellate(GAP_RESOLUTION)
-    sq = closest_points(mesh.vertices, V, F)[0]
     gap = np.zeros(dom.stats.n_faces)
-    np.maximum.at(gap, dom.locate(mesh.uv).face, np.sqrt(np.maximum(sq, 0.0)))
+    np.maximum.at(gap, dom.locate(mesh.uv).face, distance_to_mesh(mesh.vertices, V, F))
     return gap
 
 
