@@ -35,7 +35,6 @@ unchanged.
 """
 from __future__ import annotations
 
-import importlib.util
 
 import numpy as np
 import scipy.sparse as sp
@@ -89,8 +88,9 @@ GLOBAL_OUTLINE_WEIGHT = 100.0
 #: at 49k vertices (a 100k-face scan, load 5) 2.6 s, the harmonic map's parameterization 1.6 -> 6.4 s,
 #: which would cost the interpolating fit's and the approximation's speed targets (issues 19, 15).
 GLOBAL_MAX_VERTICES = 20_000
-#: PARDISO where installed (the matrix's fill makes CHOLMOD 3.6x slower at 20k vertices).
-_HAVE_PARDISO = importlib.util.find_spec("pypardiso") is not None
+#: Unknowns from which the global solve takes PARDISO where installed (``spd_backend``'s
+#: ``pardiso_min``): every size, as the matrix's fill makes CHOLMOD 3.6x slower at 20k vertices.
+GLOBAL_PARDISO_MIN = 0
 #: Rounds of reverting the vertices of folded faces before the map is returned unchanged.
 REVERT_ROUNDS = 4
 #: Vertices fitted together (about 50 kB each at the largest neighbourhood).
@@ -270,7 +270,7 @@ def _global(S: sp.csr_matrix, uv: np.ndarray, fixed: np.ndarray, weight: float) 
     A = weight * (Df.T @ Df) + sp.identity(int(free.sum()), format="csr")
     b = uv[free] - weight * (Df.T @ (Dc @ uv[fixed]))
     out = uv.copy()
-    out[free] = solve_spd(A.tocsr(), b, backend="pardiso" if _HAVE_PARDISO else None)
+    out[free] = solve_spd(A.tocsr(), b, pardiso_min=GLOBAL_PARDISO_MIN)
     return out
 
 

@@ -44,30 +44,33 @@ def point_pypardiso_at_mkl() -> None:
         os.environ["PYPARDISO_MKL_RT"] = found
 
 
-def spd_backend(requested: str | None, n: int) -> str:
-    """The backend for ``n`` unknowns: ``requested``, or PARDISO from :data:`SPD_PARDISO_MIN` when
-    installed, else cholespy (one rule for both layers: ``fit.solve`` asks it too)."""
+def spd_backend(requested: str | None, n: int, *, pardiso_min: int = SPD_PARDISO_MIN) -> str:
+    """The backend for ``n`` unknowns: ``requested``, or PARDISO from ``pardiso_min`` unknowns
+    (default :data:`SPD_PARDISO_MIN`; a caller whose matrix fills more, like the uv smoothing's,
+    lowers it) when installed, else cholespy (one rule for both layers: ``fit.solve`` asks it too)."""
     if requested is not None:
         if requested not in SPD_BACKENDS:
             raise ValueError(f"unknown backend {requested!r}; choose from {', '.join(SPD_BACKENDS)}")
         return requested
-    if n >= SPD_PARDISO_MIN and importlib.util.find_spec("pypardiso") is not None:
+    if n >= pardiso_min and importlib.util.find_spec("pypardiso") is not None:
         return "pardiso"
     return "cholespy"
 
 
-def solve_spd(A: sp.spmatrix, b: np.ndarray, *, backend: str | None = None) -> np.ndarray:
-    """``A^{-1} b`` for a sparse symmetric positive definite ``A (n, n)`` and ``b (n,)``; ``(n,)``.
+def solve_spd(A: sp.spmatrix, b: np.ndarray, *, backend: str | None = None,
+              pardiso_min: int = SPD_PARDISO_MIN) -> np.ndarray:
+    """``A^{-1} b`` for a sparse symmetric positive definite ``A (n, n)`` and ``b (n,)`` or
+    ``(n, k)``; the same shape.
 
     Only ``A``'s upper triangle is read. ``backend``: ``"pardiso"``, ``"cholespy"`` or None
-    (PARDISO from :data:`SPD_PARDISO_MIN` unknowns when ``pypardiso`` is installed).
+    (:func:`spd_backend`'s rule, with ``pardiso_min``).
     """
     n = A.shape[0]
     b = np.ascontiguousarray(b, dtype=np.float64)
     U = sp.triu(sp.csr_matrix(A, dtype=np.float64), format="csr")
     U.sum_duplicates()
     U.sort_indices()
-    if spd_backend(backend, n) == "pardiso":
+    if spd_backend(backend, n, pardiso_min=pardiso_min) == "pardiso":
         point_pypardiso_at_mkl()  # before the import: importing pypardiso makes a solver
         import pypardiso
 

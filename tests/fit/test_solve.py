@@ -82,3 +82,27 @@ def test_factor_solvers_of_two_factors_share_one_compile():
     np.testing.assert_allclose(y2, f2.solve(b), rtol=1e-12)
     with pytest.raises(ValueError, match="mode"):
         FactorSolver(f1, mode="cg")
+
+
+def test_spd_backend_threshold_is_per_call():
+    """One rule: PARDISO from ``pardiso_min`` unknowns where installed (the uv smoothing lowers it to 0)."""
+    from trispline.param.smooth import GLOBAL_PARDISO_MIN
+    from trispline.spline.util.spd import SPD_PARDISO_MIN, spd_backend
+
+    large = "pardiso" if HAS_PARDISO else "cholespy"
+    assert spd_backend(None, SPD_PARDISO_MIN - 1) == "cholespy"
+    assert spd_backend(None, SPD_PARDISO_MIN) == large
+    assert spd_backend(None, 10, pardiso_min=GLOBAL_PARDISO_MIN) == large
+    assert spd_backend("cholespy", 10**7) == "cholespy"
+
+
+@pytest.mark.parametrize("backend", ["cholespy", pytest.param(
+    "pardiso", marks=pytest.mark.skipif(not HAS_PARDISO, reason="pypardiso not installed"))])
+def test_solve_spd_takes_several_right_hand_sides(backend):
+    from trispline.spline.util.spd import solve_spd
+
+    H = spd(300, seed=3)
+    b = np.random.default_rng(4).normal(size=(300, 2))
+    x = solve_spd(H, b, backend=backend)
+    assert x.shape == (300, 2)
+    np.testing.assert_allclose(H @ x, b, rtol=0, atol=1e-9 * np.abs(b).max())
