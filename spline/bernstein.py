@@ -8,6 +8,7 @@ the barycentric-direction derivatives here and the face Jacobians in
 """
 from __future__ import annotations
 
+from functools import lru_cache
 from math import factorial
 
 import numpy as np
@@ -18,6 +19,11 @@ from .index import DEGREE, EXPONENTS, NCTRL, lattice
 _MULTINOMIAL = np.array(
     [factorial(DEGREE) / (factorial(i) * factorial(j) * factorial(k)) for i, j, k in EXPONENTS]
 )
+
+
+#: Points whose basis is computed together: a large array is fresh memory each time (page faults cost
+#: more than the arithmetic on a VM), a chunk's temporaries are reused.
+CHUNK = 1 << 14
 
 
 def _powers(bary: np.ndarray, degree: int) -> np.ndarray:
@@ -53,14 +59,17 @@ def basis(bary: np.ndarray, order: tuple[int, int, int] = (0, 0, 0)) -> np.ndarr
         ``d^|order| B_ijk / dl_a^oa dl_b^ob dl_c^oc`` in storage order.
     """
     bary = as_array(bary, "bary", (None, 3))
-    pw = _powers(bary, DEGREE)
-    out = np.broadcast_to(_MULTINOMIAL, (bary.shape[0], NCTRL)).copy()
-    for c in range(3):
-        e = EXPONENTS[:, c]
-        o = order[c]
-        coef = _falling(e, o)
-        ee = np.clip(e - o, 0, None)
-        out *= coef[None, :] * pw[:, c, :][:, ee]
+    out = np.empty((bary.shape[0], NCTRL))
+    for lo in range(0, bary.shape[0], CHUNK):  # the temporaries in reused heap memory (see CHUNK)
+        s = slice(lo, lo + CHUNK)
+        pw = _powers(bary[s], DEGREE)
+        out[s] = _MULTINOMIAL
+        for c in range(3):
+            e = EXPONENTS[:, c]
+            o = order[c]
+            coef = _falling(e, o)
+            ee = np.clip(e - o, 0, None)
+            out[s] *= coef[None, :] * pw[:, c, :][:, ee]
     return out
 
 
@@ -80,6 +89,48 @@ def basis_hessian_bary(bary: np.ndarray) -> np.ndarray:
             o[b] += 1
             h[a, b] = h[b, a] = basis(bary, tuple(o))
     return h
+
+
+@lru_cache(maxsize=8)
+def _step_index(degree: int) -> np.ndarray:
+    """``(3, m)`` storage ids in :func:`lattice` ``(degree)`` of ``e + 1_a`` for each ``e`` of ``lattice(degree - 1)``."""
+    ids = {tuple(int(x) for x in e): n for n, e in enumerate(lattice(degree))}
+    lower = lattice(degree - 1) if degree > 1 else np.zeros((1, 3), np.int64)
+    out = np.array([[ids[tuple(int(x) for x in e + np.eye(3, dtype=np.int64)[a])] for e in lower] for a in range(3)],
+                   np.int64)
+    out.setflags(write=False)
+    return out
+
+
+def de_casteljau_derivatives(ctrl: np.ndarray, bary: np.ndarray, second: bool = False
+                             ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Value, barycentric gradient and Hessian of quintic patches by de Casteljau's algorithm.
+
+    ``ctrl (n, 21, d)`` one patch per query, ``bary (n, 3)`` (homogeneous: need not sum to one).
+    Returns ``value (n, d)``, ``grad (3, n, d)`` (``d/dl_a``) and, with ``second``, ``hess (3, 3, n, d)``
+    (``d^2/dl_a dl_b``, symmetric) -- the same as contracting :func:`basis`,
+    :func:`basis_gradient_bary` and :func:`basis_hessian_bary` with ``ctrl``, with about a third of the
+    arithmetic: the ``k``-th derivatives are ``5!/(5-k)!`` times the points of de Casteljau's level
+    ``5 - k`` (blossoming).
+    """
+    lam = [np.asarray(bary)[None, :, a, None] for a in range(3)]  # (1, n, 1) each
+    levels = [np.moveaxis(np.asarray(ctrl), 1, 0).copy()]  # (21, n, d): each level's points are whole blocks
+    for degree in range(DEGREE, 0, -1):
+        i0, i1, i2 = _step_index(degree)
+        b = levels[-1]
+        nxt = b[i0]
+        nxt *= lam[0]
+        nxt += lam[1] * b[i1]
+        nxt += lam[2] * b[i2]
+        levels.append(nxt)
+    value = levels[-1][0]
+    grad = DEGREE * levels[-2]  # (3, n, d), degree 1: 1_a is storage id a
+    if not second:
+        return value, grad, None
+    quad = levels[-3]  # (6, n, d), degree 2
+    q = _step_index(2)  # q[a][b]: the id of 1_a + 1_b
+    hess = (DEGREE * (DEGREE - 1)) * quad[q]  # (3, 3, n, d)
+    return value, grad, hess
 
 
 def bary_grid(resolution: int) -> np.ndarray:

@@ -79,9 +79,10 @@ class Locator:
         cross = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]  # twice area of (p, v_k+1, v_k+2)
         return cross / self._twice_area[face_idx, None]
 
-    def __call__(self, points: np.ndarray, *, strict: bool = False, chunk: int = 1 << 18
+    def __call__(self, points: np.ndarray, *, strict: bool = False, chunk: int = 1 << 15
                  ) -> tuple[np.ndarray, np.ndarray]:
-        """Locate points; see :func:`locate`."""
+        """Locate points; see :func:`locate`. ``chunk``: points located together (small chunks keep the
+        candidate pairs in reused heap memory: 1M points in 1.0-1.2 s, 2.0-2.9 s with chunks of 262k)."""
         pts = as_array(points, "points", (None, 2), finite=True)
         m = pts.shape[0]
         face_idx = np.full(m, -1, np.int64)

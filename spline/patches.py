@@ -22,7 +22,7 @@ import numpy as np
 
 from .util import gather as _gather, memory as _memory
 from .index import NCTRL
-from .bernstein import basis, basis_gradient_bary, basis_hessian_bary
+from .bernstein import basis, basis_gradient_bary, de_casteljau_derivatives
 from .checks import as_array, check_ids
 from .errors import InputError
 from .topology import Triangulation, face_bary_gradients
@@ -68,7 +68,21 @@ def evaluate(
     """
     ctrl = check_ctrl(faces, ctrl)
     face_idx, bary = _check_queries(ctrl.shape[0], face_idx, bary)
-    return np.einsum("nk,nkd->nd", basis(bary), _gather.rows(ctrl, face_idx))
+    out = np.empty((face_idx.shape[0], ctrl.shape[2]))
+    for s in _chunks(face_idx.shape[0]):
+        out[s] = np.matmul(basis(bary[s])[:, None, :], _gather.rows(ctrl, face_idx[s]))[:, 0]
+    return out
+
+
+#: Queries evaluated together: the temporaries (about 0.5 kB a query) stay in reused heap memory
+#: (large ones are fresh pages each time, which cost more than the arithmetic on a VM: 1M values
+#: 1.7 s at once, 0.5 s in chunks).
+CHUNK = 1 << 14
+
+
+def _chunks(n: int) -> list[slice]:
+    """Slices of :data:`CHUNK` queries covering ``range(n)``."""
+    return [slice(lo, min(lo + CHUNK, n)) for lo in range(0, n, CHUNK)]
 
 
 @dataclass(frozen=True)
@@ -109,28 +123,20 @@ def evaluate_derivatives(
     """
     ctrl = check_ctrl(faces, ctrl)
     face_idx, bary = _check_queries(ctrl.shape[0], face_idx, bary)
-    G = face_bary_gradients(uv, np.asarray(faces)[face_idx])  # (n, 3, 2)
-    c = _gather.rows(ctrl, face_idx)  # (n, 21, d)
-    values = np.einsum("nk,nkd->nd", basis(bary), c)
-    dB = basis_gradient_bary(bary)  # (3, n, 21)
-    Bu = np.einsum("mnk,nm->nk", dB, G[:, :, 0])
-    Bv = np.einsum("mnk,nm->nk", dB, G[:, :, 1])
-    du = np.einsum("nk,nkd->nd", Bu, c)
-    dv = np.einsum("nk,nkd->nd", Bv, c)
-    if not second:
-        return PatchDerivatives(values, du, dv)
-    H = basis_hessian_bary(bary)  # (3, 3, n, 21)
-    Buu = np.einsum("abnk,na,nb->nk", H, G[:, :, 0], G[:, :, 0])
-    Buv = np.einsum("abnk,na,nb->nk", H, G[:, :, 0], G[:, :, 1])
-    Bvv = np.einsum("abnk,na,nb->nk", H, G[:, :, 1], G[:, :, 1])
-    return PatchDerivatives(
-        values,
-        du,
-        dv,
-        np.einsum("nk,nkd->nd", Buu, c),
-        np.einsum("nk,nkd->nd", Buv, c),
-        np.einsum("nk,nkd->nd", Bvv, c),
-    )
+    n, d = face_idx.shape[0], ctrl.shape[2]
+    out = [np.empty((n, d)) for _ in range(6 if second else 3)]
+    for s in _chunks(n):
+        G = face_bary_gradients(uv, np.asarray(faces)[face_idx[s]])  # (m, 3, 2)
+        values, grad, hess = de_casteljau_derivatives(_gather.rows(ctrl, face_idx[s]), bary[s], second)
+        Gu, Gv = G[:, :, 0], G[:, :, 1]
+        out[0][s] = values
+        out[1][s] = np.einsum("amd,ma->md", grad, Gu)
+        out[2][s] = np.einsum("amd,ma->md", grad, Gv)
+        if second:  # (3, 3, m, d)
+            out[3][s] = np.einsum("abmd,ma,mb->md", hess, Gu, Gu)
+            out[4][s] = np.einsum("abmd,ma,mb->md", hess, Gu, Gv)
+            out[5][s] = np.einsum("abmd,ma,mb->md", hess, Gv, Gv)
+    return PatchDerivatives(*out)
 
 
 def evaluate_grid(
