@@ -9,7 +9,9 @@ its own uv as an extrapolation of the boundary patch that reaches it with the le
 extrapolation (:meth:`~.locate.ClampedLocator.extension`; not simply the nearest edge's,
 whose patch can be far off beyond a boundary vertex), unless that is farther than
 :data:`EXTRAPOLATION` outside it in barycentric terms (then it sits on the chord, a
-parameter a polynomial's data do not fit).
+parameter a polynomial's data do not fit). Such a point is **unreached**
+(:func:`scan_location`): the fit gives it no data weight (it is left out of the data term),
+so a polynomial is still reproduced exactly; the pipeline counts them (``stats["unreached"]``).
 The problem (:mod:`.problem`) is solved in coordinates normalised to the scan's size:
 the plain loss by one solve with the host factor of its normal matrix (its exact
 minimum; :mod:`trispline.fit.solve`), a robust loss by optimistix Gauss--Newton started
@@ -17,18 +19,21 @@ there, each step a conjugate-gradient solve preconditioned by that same factor.
 """
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
+import scipy.sparse as sp
 
 from trispline.param import face_areas_3d
 from trispline.spline.bernstein import basis
 from trispline.spline.polynomial import Polynomial, polynomial_control_net
 from trispline.spline.propagation import SplineSpace, build_space, working_origin
 from trispline.spline.surface import SplineSurface
+from trispline.spline.util.spd import spd_backend
 from trispline.spline.tolerances import APPROX_CG_RTOL, APPROX_CONVERGED_GRAD_RTOL, APPROX_GN_ATOL, APPROX_GN_RTOL
 
 from ..solve import FactorSolver, SparseCholesky
@@ -38,7 +43,7 @@ from ..energy.data import DataPoints
 from .problem import CORNER_MODES, ApproxProblem, plain_system, residual_function, robust_points, setup_problem
 
 __all__ = ["CoarseFit", "fit_domain", "bend_face_weights", "BEND_WEIGHT_RANGE", "scan_parameters",
-           "corrected_parameters", "outline_faces", "outline_factor", "OUTLINE_DATA_WEIGHT", "quadric_reference",
+           "scan_location", "corrected_parameters", "corrected_location", "outline_faces", "outline_factor", "OUTLINE_DATA_WEIGHT", "quadric_reference",
            "cross_validated_weight",
            "APPROX_WEIGHTS", "DATA_WEIGHTS", "EXTRAPOLATION"]
 
@@ -79,6 +84,7 @@ class CoarseFit:
     iterations : Gauss--Newton steps (0: the plain loss, solved directly)
     converged : bool
     n_unknowns : free points solved for
+    unreached : (n,) bool, the scan points left out of the data term (:func:`scan_location`)
     """
 
     surface: SplineSurface
@@ -88,48 +94,79 @@ class CoarseFit:
     iterations: int
     converged: bool
     n_unknowns: int
+    unreached: np.ndarray | None = None
 
 
-def scan_parameters(dom: CoarseDomain) -> tuple[np.ndarray, np.ndarray]:
-    """``face (n,)``, ``bary (n, 3)`` of every scan vertex in the coarse domain (see the module docstring)."""
+def scan_location(dom: CoarseDomain) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``face (n,)``, ``bary (n, 3)`` of every scan vertex in the coarse domain (see the module docstring)
+    and ``unreached (n,)`` bool: outside the domain and farther than :data:`EXTRAPOLATION` from every
+    boundary patch that could extend to it (on its chord instead, where its data do not belong)."""
     uv = dom.scan_uv
     hit = dom.locate(uv)
     face, bary = hit.face.copy(), hit.bary.copy()
+    unreached = np.zeros(uv.shape[0], bool)
     out = np.flatnonzero(hit.clamped)
     if out.size:
         ext, own = dom.locator.extension(uv[out])
         near = own.min(1) >= EXTRAPOLATION
         face[out[near]], bary[out[near]] = ext[near], own[near]
-    return face, bary
+        unreached[out[~near]] = True
+    return face, bary, unreached
 
 
-def corrected_parameters(dom: CoarseDomain, closest_uv: np.ndarray, on_boundary: np.ndarray
-                         ) -> tuple[np.ndarray, np.ndarray]:
-    """``face (n,)``, ``bary (n, 3)``: every scan vertex at its closest point on an earlier fit's surface
-    (``closest_uv (n, 2)``, :attr:`~.deviation.Deviation.uv`), located in ``dom`` (parameter correction).
+def scan_parameters(dom: CoarseDomain) -> tuple[np.ndarray, np.ndarray]:
+    """``face (n,)``, ``bary (n, 3)`` of every scan vertex in the coarse domain (:func:`scan_location`)."""
+    return scan_location(dom)[:2]
+
+
+def corrected_location(dom: CoarseDomain, closest_uv: np.ndarray, on_boundary: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``face (n,)``, ``bary (n, 3)``, ``unreached (n,)``: every scan vertex at its closest point on an earlier
+    fit's surface (``closest_uv (n, 2)``, :attr:`~.deviation.Deviation.uv`), located in ``dom`` (parameter
+    correction).
 
     A least-squares fit at fixed parameters measures each point's error at its own uv, so the map's
     tangential distortion (which a coarse spline cannot follow) counts as error; at the closest
     point only the true 3D distance does, and refitting there lowers it (camelhead at 2%: d>m RMS
     -17% after three corrections). Points whose closest point lies on the surface's boundary curve
-    (``on_boundary (n,)``) or outside ``dom`` keep :func:`scan_parameters` (their own uv's extrapolation).
+    (``on_boundary (n,)``) or outside ``dom`` keep :func:`scan_location` (their own uv's extrapolation,
+    or unreached).
     """
-    face, bary = scan_parameters(dom)
+    face, bary, unreached = scan_location(dom)
     hit = dom.locate(np.asarray(closest_uv, np.float64))
     use = ~hit.clamped & ~np.asarray(on_boundary, bool)
     face[use], bary[use] = hit.face[use], hit.bary[use]
-    return face, bary
+    unreached[use] = False
+    return face, bary, unreached
+
+
+def corrected_parameters(dom: CoarseDomain, closest_uv: np.ndarray, on_boundary: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """``face (n,)``, ``bary (n, 3)`` of :func:`corrected_location`."""
+    return corrected_location(dom, closest_uv, on_boundary)[:2]
 
 
 def quadric_reference(dom: CoarseDomain, V: np.ndarray) -> Polynomial:
     """The scan's best-fit quadric over uv, ``(u, v) -> (3,)``: least squares on the scan analysis's
-    denoised vertices (each on its cell's robust quadric), so outliers barely move it."""
-    uv = dom.scan_uv
+    denoised vertices (each on its cell's robust quadric), so outliers barely move it.
+
+    It depends on ``dom.scan_uv`` and ``dom.analysis.smooth`` alone, which the refinement rounds'
+    domains share: the last one is kept while those arrays live (1M scan points: 0.3 s a fit)."""
+    uv, smooth = dom.scan_uv, dom.analysis.smooth
+    last = _LAST_QUADRIC.get("key")
+    if last is not None and last[0]() is uv and last[1]() is smooth:
+        return _LAST_QUADRIC["value"]
     centre = 0.5 * (uv.min(0) + uv.max(0))
     x = uv - centre
     m = x[:, :1] ** QUADRIC_POWERS[:, 0] * x[:, 1:] ** QUADRIC_POWERS[:, 1]  # (n, 6)
-    coeffs = np.linalg.lstsq(m, dom.analysis.smooth, rcond=None)[0]
-    return Polynomial(powers=QUADRIC_POWERS, coeffs=coeffs, centre=centre)
+    coeffs = np.linalg.lstsq(m, smooth, rcond=None)[0]
+    out = Polynomial(powers=QUADRIC_POWERS, coeffs=coeffs, centre=centre)
+    _LAST_QUADRIC.update(key=(weakref.ref(uv), weakref.ref(smooth)), value=out)
+    return out
+
+
+#: :func:`quadric_reference`'s last answer, under weak references to its inputs.
+_LAST_QUADRIC: dict = {}
 
 
 def bend_face_weights(dom: CoarseDomain) -> np.ndarray:
@@ -183,36 +220,44 @@ def _reference_net(dom: CoarseDomain, V: np.ndarray, reference: Polynomial | Non
 
 def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX_WEIGHTS,
                            corners: str = "data", candidates: tuple[float, ...] = DATA_WEIGHTS,
-                           holdout: int = HOLDOUT, located: tuple[np.ndarray, np.ndarray] | None = None
-                           ) -> tuple[float, dict[float, float]]:
+                           holdout: int = HOLDOUT, located: tuple[np.ndarray, np.ndarray] | None = None,
+                           unreached: np.ndarray | None = None) -> tuple[float, dict[float, float]]:
     """The data weight of :data:`DATA_WEIGHTS` whose plain fit best predicts held-out scan vertices.
 
     Every ``holdout``-th scan vertex (not a coarse vertex) is left out; the others are fitted
-    once per candidate (one assembly of the split normal equations, one factorisation per
-    candidate) and the left-out ones scored by their residual at their own parameter, RMS over
+    once per candidate (one assembly of the split normal equations, one PARDISO analysis, one
+    numerical factorisation per candidate: :meth:`~trispline.fit.solve.SparseCholesky.refactor`)
+    and the left-out ones scored by their residual at their own parameter, RMS over
     all but the worst 1% (outliers). Noisy scans want a small weight (more smoothing), clean
-    ones with detail a large one. ``located``: the scan's parameters (default :func:`scan_parameters`;
-    the pipeline passes :func:`corrected_parameters`). Returns ``(weight, {weight: score})``.
+    ones with detail a large one. ``located``: the scan's parameters (default :func:`scan_location`;
+    the pipeline passes :func:`corrected_location`), ``unreached (n,)`` its points left out (default
+    :func:`scan_location`'s). Returns ``(weight, {weight: score})``.
     """
-    face, bary = scan_parameters(dom) if located is None else located
+    face, bary, unreached = _location(dom, located, unreached)
     n = V.shape[0]
     test = np.arange(n) % holdout == holdout // 2
     test[dom.vertices] = False
+    train = ~test & ~unreached
+    test &= ~unreached
     centre, size = _normalisation(V)
     Vn = (V - centre) / size
     space = build_space(dom.triangulation)
     corner_xyz = Vn[dom.vertices] if corners == "data" else None
     ref_net = _reference_net(dom, V, None, centre, size)
-    train = DataPoints(face[~test], bary[~test], Vn[~test])
+    train = DataPoints(face[train], bary[train], Vn[train])
     bw, edge = bend_face_weights(dom), outline_faces(dom)
     sys = plain_system(space, train, corner_xyz, weights, "l2", ref_net, bend_weight=bw * ~edge)
     none = DataPoints(face[:0], bary[:0], Vn[:0])
     rim = plain_system(space, none, corner_xyz, weights, "l2", ref_net, bend_weight=bw * edge)  # the outline's bend
     B = basis(bary[test])
     scores = {}
+    factor = None
+    backend = spd_backend(None, sys.unknowns.size, pardiso_min=0)  # one analysis for every candidate
     for w in candidates:
         o, d = outline_factor(w), w / weights.data
-        factor = SparseCholesky(sys.H_bend + o * rim.H_bend + d * sys.H_data)
+        U = sp.triu(sys.H_bend + o * rim.H_bend + d * sys.H_data, format="csr")
+        if factor is None or not factor.refactor(U):
+            factor = SparseCholesky(U, backend=backend, upper=True)
         free = np.zeros((space.n_free, 3))
         if corner_xyz is not None:
             free[space.corner_free] = corner_xyz
@@ -226,8 +271,8 @@ def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeig
 
 def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX_WEIGHTS, loss: str = "huber",
                scale: float | np.ndarray | None = None, corners: str = "data",
-               located: tuple[np.ndarray, np.ndarray] | None = None, point_weight: np.ndarray | None = None,
-               gauss_newton: bool = True, reference: Polynomial | None = None,
+               located: tuple[np.ndarray, np.ndarray] | None = None, unreached: np.ndarray | None = None,
+               point_weight: np.ndarray | None = None, gauss_newton: bool = True, reference: Polynomial | None = None,
                solver: optx.AbstractLeastSquaresSolver | None = None, max_steps: int = 50) -> CoarseFit:
     """Fit the spline over ``dom`` to every scan vertex ``V (n, 3)``.
 
@@ -237,7 +282,9 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
         one or ``(n,)`` one per scan vertex (e.g. ``TUNING[loss] * dom.stats.noise``,
         :data:`~trispline.fit.energy.robust.TUNING`; the pipeline's: :func:`~.pipeline.loss_scale`)
     corners : ``"data"`` (corner points = their scan vertices) or ``"fit"``
-    located : ``(face (n,), bary (n, 3))`` from :func:`scan_parameters`, if already known
+    located : ``(face (n,), bary (n, 3))`` from :func:`scan_location`, if already known
+    unreached : (n,) bool, the points left out of the data term (no data weight; default
+        :func:`scan_location`'s, found again if ``located`` is given without it)
     point_weight : (n,) reweighting of the plain normal equations (the robust loss's weights at
         an earlier fit): their solution starts Gauss--Newton and their factor preconditions it
     gauss_newton : False: stop at that reweighted least-squares solution (one IRLS step, the
@@ -250,10 +297,14 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
         raise ValueError(f"corners must be one of {', '.join(CORNER_MODES)}, got {corners!r}")
     if loss != "l2" and scale is None:
         raise ValueError(f"the {loss} loss needs its scale (data units)")
-    face, bary = scan_parameters(dom) if located is None else located
+    face, bary, unreached = _location(dom, located, unreached)
     centre, size = _normalisation(V)
     space = build_space(dom.triangulation)
-    points = robust_points(face, bary, (V - centre) / size, loss, (size if scale is None else np.asarray(scale)) / size)
+    keep = np.flatnonzero(~unreached) if unreached.any() else slice(None)  # unreached: no data weight
+    sc = size if scale is None else np.asarray(scale)
+    points = robust_points(face[keep], bary[keep], (V[keep] - centre) / size, loss,
+                           (sc if np.ndim(sc) == 0 else sc[keep]) / size)
+    point_weight = None if point_weight is None else np.asarray(point_weight)[keep]
     corner_xyz = (V[dom.vertices] - centre) / size if corners == "data" else None
     ref_net = _reference_net(dom, V, reference, centre, size)
     bw = bend_face_weights(dom) * np.where(outline_faces(dom), outline_factor(weights.data), 1.0)
@@ -269,7 +320,18 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
     energies = prob.energies((ctrl - centre) / size, size)
     surface = SplineSurface(space.tri.uv, dom.faces, ctrl)  # the domain used: nearly singular vertices snapped
     return CoarseFit(surface=surface, free=free, space=space, energies=energies, iterations=steps, converged=ok,
-                     n_unknowns=k)
+                     n_unknowns=k, unreached=unreached)
+
+
+def _location(dom: CoarseDomain, located: tuple[np.ndarray, np.ndarray] | None, unreached: np.ndarray | None
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(face, bary, unreached)``: the given ones, the missing ones from :func:`scan_location`."""
+    if located is not None and unreached is not None:
+        return located[0], located[1], np.asarray(unreached, bool)
+    face, bary, found = scan_location(dom)
+    if located is not None:
+        face, bary = located
+    return face, bary, found if unreached is None else np.asarray(unreached, bool)
 
 
 def _half_sum_squares(x: jax.Array, args: dict) -> jax.Array:

@@ -43,7 +43,7 @@ from ..weights import FitWeights
 from .analysis import SPIKE_LEVELS
 from .deviation import Deviation, summary
 from .domain import DEFAULT_FRACTION, CoarseDomain, coarse_domain, insert
-from .fit import APPROX_WEIGHTS, corrected_parameters, cross_validated_weight, fit_domain, scan_parameters
+from .fit import APPROX_WEIGHTS, corrected_location, cross_validated_weight, fit_domain, scan_location
 from .problem import CORNER_MODES
 from .refine import Round, measure, pick_vertices
 
@@ -108,7 +108,9 @@ class ApproxResult:
     vertices : (k,) scan vertex of each coarse vertex (``domain.vertices``)
     deviation : Deviation of every scan vertex (closest points on the surface)
     rejected : (n,) bool, the points the robust loss rejected (outliers; the tolerance does not apply)
-    stats : deviation (the inliers' :func:`~.deviation.summary`), deviation_all, rejected, vertices,
+    stats : deviation (the inliers' :func:`~.deviation.summary`), deviation_all, rejected, unreached (scan
+        points outside the coarse domain that no boundary patch reaches, left out of the fit's data term:
+        :func:`~.fit.scan_location`; their deviation still counts), vertices,
         patches, tolerance, budget, met, stop (why the refinement stopped), rounds, noise, scale,
         data_weight, cross_validated (whether it was chosen so) and corrections (the parameter corrections
         of the fit kept, :func:`_final`)
@@ -355,18 +357,23 @@ def _whole_budget(V: np.ndarray, F: np.ndarray, uv: np.ndarray, opt: _Options, s
     return dom, opt, best, history, "noise floor"
 
 
-def _smoothing(dom: CoarseDomain, V: np.ndarray, opt: _Options, located: tuple | None = None) -> FitWeights:
-    """:data:`~.fit.APPROX_WEIGHTS` with the cross-validated data weight of ``dom`` (scan at ``located``)."""
+def _smoothing(dom: CoarseDomain, V: np.ndarray, opt: _Options, located: tuple | None = None,
+               unreached: np.ndarray | None = None) -> FitWeights:
+    """:data:`~.fit.APPROX_WEIGHTS` with the cross-validated data weight of ``dom`` (scan at ``located``,
+    ``unreached`` left out)."""
     return dataclasses.replace(APPROX_WEIGHTS, data=cross_validated_weight(dom, V, corners=opt.corners,
-                                                                           located=located)[0])
+                                                                           located=located, unreached=unreached)[0])
 
 
-def _located(dom: CoarseDomain, previous: Round | None) -> tuple[np.ndarray, np.ndarray]:
-    """The scan's parameters in ``dom``: at the closest points of ``previous``'s surface
-    (:func:`~.fit.corrected_parameters`), or their own uv without one."""
+def _located(dom: CoarseDomain, previous: Round | None) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
+    """``((face, bary), unreached)``: the scan's parameters in ``dom``, at the closest points of
+    ``previous``'s surface (:func:`~.fit.corrected_location`), or their own uv without one, and the
+    points left out of the data term."""
     if previous is None:
-        return scan_parameters(dom)
-    return corrected_parameters(dom, previous.deviation.uv, previous.deviation.on_boundary)
+        face, bary, unreached = scan_location(dom)
+    else:
+        face, bary, unreached = corrected_location(dom, previous.deviation.uv, previous.deviation.on_boundary)
+    return (face, bary), unreached
 
 
 def loss_scale(dom: CoarseDomain, loss: str, diagonal: float) -> np.ndarray:
@@ -396,11 +403,11 @@ def _round_fit(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: np.ndarra
     The weights start afresh each round: a region the last domain could not follow is not
     kept down-weighted once refinement has given it the vertices to follow it.
     """
-    located = scan_parameters(dom)
+    located, unreached = _located(dom, None)
     pw = None
     for _ in range(1 + (IRLS_STEPS if scale is not None else 0)):
         fit = fit_domain(dom, V, weights=opt.weights, loss=opt.loss, scale=scale, corners=opt.corners,
-                         located=located, point_weight=pw, gauss_newton=False)
+                         located=located, unreached=unreached, point_weight=pw, gauss_newton=False)
         if scale is not None:
             pw = _irls_weights(fit, located, V, scale, opt.loss)
     return fit, located
@@ -500,19 +507,19 @@ def _final(V: np.ndarray, F: np.ndarray, best: Round, opt: _Options, scale: np.n
     points being the scan's own parameters). With a tolerance it replaces the best round only if it meets the tolerance too or does not
     raise the maximum deviation. Returns the state kept and its weights."""
     t0 = time.perf_counter()
-    located = best.located if opt.refine else _located(best.dom, best)
-    weights = _smoothing(best.dom, V, opt, located) if (opt.auto and refined) else opt.weights
+    located, unreached = (best.located, best.fit.unreached) if opt.refine else _located(best.dom, best)
+    weights = _smoothing(best.dom, V, opt, located, unreached) if (opt.auto and refined) else opt.weights
     state, kept = best, None
     for k in range(1 if opt.refine else 1 + FINAL_CORRECTIONS):
         pw = None if scale is None else _irls_weights(state.fit, located, V, scale, opt.loss)
         fit = fit_domain(best.dom, V, weights=weights, loss=opt.loss, scale=scale, corners=opt.corners,
-                         located=located, point_weight=pw, gauss_newton=scale is not None)
+                         located=located, unreached=unreached, point_weight=pw, gauss_newton=scale is not None)
         state = measure(best.dom, V, fit, located, scale is not None, seconds=time.perf_counter() - t0,
                         outline=not opt.refine, scan_faces=None if opt.refine else F)
         state = dataclasses.replace(state, corrections=k + (not opt.refine))
         if kept is None or state.worst < kept.worst:
             kept = state
-        located = _located(best.dom, state)
+        located, unreached = _located(best.dom, state)
     stage("final")
     # the final fit, unless it would break a tolerance the best round met (or do worse)
     keep = opt.tolerance is None or kept.max_deviation <= max(opt.tolerance, best.max_deviation)
@@ -530,7 +537,8 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
     met = opt.tolerance is not None and state.max_deviation <= opt.tolerance
     nominal = None if scale is None else float(np.min(scale))  # the spikes' scale
     stats = dict(deviation=state.inliers, deviation_all=summary(state.deviation.distance),
-                 rejected=int(state.rejected.sum()), vertices=int(dom.stats.n_vertices), patches=int(tri.n_faces),
+                 rejected=int(state.rejected.sum()), unreached=int(np.count_nonzero(fit.unreached)),
+                 vertices=int(dom.stats.n_vertices), patches=int(tri.n_faces),
                  tolerance=opt.tolerance, budget=opt.budget, met=bool(met), stop=stop, rounds=len(history),
                  noise=float(dom.stats.noise), scale=nominal, scan_vertices=int(V.shape[0]))
     stats.update(data_weight=float(weights.data), cross_validated=opt.auto, corrections=state.corrections)

@@ -22,6 +22,7 @@ after refinement usually reuses the compiled Gauss--Newton loop of an earlier ro
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import jax
@@ -63,7 +64,7 @@ class ApproxProblem:
 
     Attributes
     ----------
-    args : pytree of JAX arrays for :func:`residuals` (padded shapes)
+    host_args : the same pytree as :attr:`args` in NumPy arrays
     H : (kp, kp) sparse SPD normal matrix of the plain terms (one per coordinate; padding: identity)
     rhs : (kp, 3) its right-hand side; ``H^{-1} rhs`` is the plain loss's optimum
     unknowns : (k,) free ids of the unknowns (the first ``k`` of ``kp``)
@@ -71,12 +72,18 @@ class ApproxProblem:
     terms : the terms' host arrays, unpadded (``bend``, ``data``, ``reference (f, 21, 3)``), for :meth:`energies`
     """
 
-    args: dict
+    host_args: dict
     H: sp.csr_array
     rhs: np.ndarray
     unknowns: np.ndarray
     loss: str
     terms: dict
+
+    @functools.cached_property
+    def args(self) -> dict:
+        """Pytree of JAX arrays for :func:`residuals` (padded shapes), made on first use: a plain or
+        reweighted fit solves on the host and never needs it (1M scan points: 0.2 GB not copied)."""
+        return jax.tree_util.tree_map(jnp.asarray, self.host_args)
 
     @property
     def nonlinear(self) -> bool:
@@ -200,7 +207,7 @@ def _padded_problem(M_u: sp.csr_matrix, c0: np.ndarray, point_index: np.ndarray,
     Mc = M_u.tocoo()
     args = dict(M_rows=Mc.row.astype(np.int64), M_cols=Mc.col.astype(np.int64), M_vals=Mc.data, c0=c0_p,
                 point_index=pidx, bend=dict(terms["bend"], W=W), reference=ref, data=terms["data"])
-    return ApproxProblem(args=jax.tree_util.tree_map(jnp.asarray, args), H=Hp, rhs=rhs_p, unknowns=unknowns,
+    return ApproxProblem(host_args=args, H=Hp, rhs=rhs_p, unknowns=unknowns,
                          loss=loss, terms=terms)
 
 

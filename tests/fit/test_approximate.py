@@ -3,6 +3,8 @@ refinement never makes the maximum deviation worse, outlines and holes kept, a r
 ignores outliers the plain loss follows, and a clear message for every bad input."""
 from __future__ import annotations
 
+import dataclasses
+
 import jax
 import numpy as np
 import pytest
@@ -14,7 +16,7 @@ from trispline.fit.approx import (  # noqa: E402
 )
 from trispline.fit.approx.fit import (  # noqa: E402
     BEND_WEIGHT_RANGE, DATA_WEIGHTS, EXTRAPOLATION, OUTLINE_DATA_WEIGHT, bend_face_weights, corrected_parameters,
-    cross_validated_weight, outline_faces, outline_factor, quadric_reference,
+    cross_validated_weight, outline_faces, outline_factor, quadric_reference, scan_location,
 )
 from trispline.fit.approx.analysis import SPIKE_LEVELS  # noqa: E402
 from trispline.fit.approx.pipeline import loss_scale  # noqa: E402
@@ -404,3 +406,34 @@ def test_outline_vertices_are_rejected_only_when_rough():
         d = dataclasses.replace(dom, analysis=dataclasses.replace(dom.analysis, roughness=r))
         assert d.analysis.spike[i]
         assert measure(d, V, fit, scan_parameters(dom), True).rejected[i] == rejected
+
+
+@pytest.mark.parametrize("f", [PLANE, QUADRIC], ids=["plane", "quadric"])
+@pytest.mark.parametrize("loss", ["l2", "huber"])
+def test_points_no_boundary_patch_reaches_get_no_data_weight(f, loss):
+    """A scan point outside the coarse domain, beyond :data:`EXTRAPOLATION` of every boundary patch, sits on
+    its chord, where its data do not belong (a polynomial is not reproduced there): it is unreached, left
+    out of the data term (and counted), so a plane and a quadric are still reproduced exactly with
+    ``corners="fit"``."""
+    V, F, st = height_field(f)
+    dom = coarse_domain(V, F, st, n_vertices=30)
+    uv = dom.scan_uv.copy()
+    lo = uv[:, 1].min()
+    side = np.setdiff1d(np.flatnonzero(np.abs(uv[:, 1] - lo) < 1e-12), dom.vertices)[::4][:6]
+    assert side.size == 6
+    uv[side, 1] -= 0.4 * np.ptp(uv[:, 1])  # far below the bottom side's chords
+    A = np.column_stack([dom.scan_uv, np.ones(uv.shape[0])])
+    st2 = np.linalg.lstsq(A, st, rcond=None)[0]  # the domain's uv -> the height field's (a similarity)
+    st_new = np.column_stack([uv, np.ones(uv.shape[0])]) @ st2
+    V2 = np.column_stack([st_new, f(st_new[:, 0], st_new[:, 1])])
+    # the bend term's reference quadric is fitted to the analysis's smooth positions over scan_uv: moved too
+    moved = dataclasses.replace(dom, scan_uv=uv, analysis=dataclasses.replace(dom.analysis, smooth=V2))
+    face, bary, unreached = scan_location(moved)
+    assert np.array_equal(np.flatnonzero(unreached), side)  # on their chords
+    diag = float(np.linalg.norm(V2.max(0) - V2.min(0)))
+    scale = None if loss == "l2" else 1e-3 * diag
+    fit = fit_domain(moved, V2, loss=loss, scale=scale, corners="fit")
+    keep = ~unreached
+    np.testing.assert_allclose(fit.surface.evaluate(face[keep], bary[keep]), V2[keep], rtol=0, atol=1e-9 * diag)
+    assert np.array_equal(fit.unreached, unreached)
+    assert fit.energies["bend"] <= 1e-12 and fit.energies["data"] <= 1e-12
