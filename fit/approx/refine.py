@@ -155,7 +155,8 @@ def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray
     may be one: the leave-one-out residual of the scan analysis is large at a corner of the
     outline even on exact data) and points :func:`~.domain.insert` would skip (too near a vertex
     of their face), scored ``(d / tolerance) * min(1, b /
-    INTERIOR_BARY + 0.25) / (1 + (roughness / ROUGHNESS_SCALE)^2)`` (``b`` the smallest
+    INTERIOR_BARY + 0.25) / (1 + s (roughness / ROUGHNESS_SCALE)^2)`` (``s`` the scan analysis's
+    :attr:`~.analysis.ScanAnalysis.noise_share`: on clean data a rough vertex is a crease; ``b`` the smallest
     barycentric coordinate, taken as ``INTERIOR_BARY`` for a scan boundary vertex: it moves the
     coarse boundary out to the scan's). Faces go in order of their largest deviation, at most
     ``room`` and at most ``(GROWTH - 1)`` times the vertex count. ``exclude``: scan ids not to pick
@@ -198,7 +199,8 @@ def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray
         return np.empty(0, np.int64)
     inside = np.minimum(1.0, np.clip(bary[ids].min(1), 0.0, None) / INTERIOR_BARY + 0.25)
     inside[on_loop[ids]] = 1.0  # a scan boundary vertex splits its chord: no sliver
-    score = d[ids] / tolerance * inside / (1.0 + (dom.analysis.roughness[ids] / ROUGHNESS_SCALE) ** 2)
+    rough = dom.analysis.noise_share * (dom.analysis.roughness[ids] / ROUGHNESS_SCALE) ** 2
+    score = d[ids] / tolerance * inside / (1.0 + rough)
     f = face[ids]
     order = np.lexsort((-score, f))  # by face, best first
     first = order[np.r_[True, f[order][1:] != f[order][:-1]]]  # the best candidate of each face
