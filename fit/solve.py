@@ -27,7 +27,7 @@ import os
 import threading
 import time
 import weakref
-from typing import Any
+from typing import Any, Callable
 
 import equinox as eqx
 import jax
@@ -359,15 +359,17 @@ class PatternAnalysis:
         self._error: BaseException | None = None
         self.wait_seconds = 0.0
 
-    def start(self, pattern: sp.spmatrix) -> None:
-        """Start analysing the upper triangle ``pattern (k, k)`` (diagonal included; values unused)."""
-        # the factor's float64 copy made here, so that a caller's (float32 counts: 41 MB at 100k faces)
-        # is not held beside it for the whole analysis
-        pattern = sp.csr_matrix(pattern, dtype=np.float64)
-
+    def start(self, pattern: sp.spmatrix | Callable[[], sp.spmatrix]) -> None:
+        """Start analysing the upper triangle ``pattern (k, k)`` (diagonal included; values unused), or the
+        one a callable ``pattern()`` returns: then it is made in the background thread too (the fit's
+        :func:`~trispline.fit.energy.normal.upper_pattern`, 1-2 CPU s at 100k faces on one core, which
+        the main thread had run alone before the terms' setup could start)."""
         def analyse() -> None:
             try:
-                self._factor = SparseCholesky(pattern, upper=True, defer=True)
+                # the factor's float64 copy made here, so that a caller's (float32 counts: 41 MB at 100k
+                # faces) is not held beside it for the whole analysis
+                upper = sp.csr_matrix(pattern() if callable(pattern) else pattern, dtype=np.float64)
+                self._factor = SparseCholesky(upper, upper=True, defer=True)
             except BaseException as exc:  # noqa: BLE001 - re-raised by factor()
                 self._error = exc
 

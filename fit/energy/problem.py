@@ -8,7 +8,7 @@ by :func:`setup_problem`), never closed over, so XLA does not constant-fold the 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, partial
 from typing import Callable
 
 import jax
@@ -70,13 +70,15 @@ class Problem:
 
 def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
                   data_points: DataPoints | None = None, report: Report | None = None,
-                  on_pattern: Callable[[sp.csr_array], None] | None = None, curved_outline: bool = False) -> Problem:
+                  on_pattern: Callable[[Callable[[], sp.csr_array]], None] | None = None,
+                  curved_outline: bool = False) -> Problem:
     """Targets, residual arrays and normal equations for data vertices ``V (nv, 3)``.
 
     ``report``: progress (:mod:`trispline.fit.progress`): the local fits and targets take
     about 70% of the time, the normal equations most of the rest. ``on_pattern``: called
-    with the pattern of :attr:`Problem.H_upper` (:func:`~.normal.upper_pattern`) before the
-    terms are set up (the factorisation's analysis starts on it: :class:`~trispline.fit.solve.PatternAnalysis`).
+    before the terms are set up with a callable that makes the pattern of :attr:`Problem.H_upper`
+    (:func:`~.normal.upper_pattern`; the factorisation's analysis makes it and starts on it in its
+    background thread: :class:`~trispline.fit.solve.PatternAnalysis`).
     ``curved_outline``: as in :func:`~.context.term_context`.
     """
     is_fixed = np.zeros(space.n_free, bool)
@@ -92,8 +94,8 @@ def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
 
     A = M_r[np.asarray(space.point_index).ravel()]  # (21 F, k) patch points per unknown
     incidence = patch_unknowns(A)  # the pattern's and the assembly's (0.1-0.2 s at 100k faces)
-    if on_pattern is not None:
-        on_pattern(upper_pattern(A, incidence))
+    if on_pattern is not None:  # made where it is used: PatternAnalysis makes it in its own thread
+        on_pattern(partial(upper_pattern, A, incidence))
     ctx = term_context(space, V, weights, data_points=data_points, report=span(report, 0.0, 0.7),
                        curved_outline=curved_outline)
     terms = setup_terms(ctx)

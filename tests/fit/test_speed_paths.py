@@ -131,11 +131,12 @@ def test_local_diagonals_through_flat_views_equal_the_plain_indexing(problem):
 
 def test_pattern_from_the_patches_equals_the_assembled_one(problem):
     """``upper_pattern`` (known before any term is set up) is the pattern ``setup_problem`` assembles,
-    and ``setup_problem`` hands it to ``on_pattern`` first."""
+    and ``setup_problem`` hands a maker of it to ``on_pattern`` first."""
     V, space, w = problem
     seen = []
     prob = en.setup_problem(V, space, w, on_pattern=seen.append)
-    (P,) = seen
+    (make,) = seen
+    P = make()
     U = sp.csr_array(prob.H_upper)
     assert P.shape == U.shape and np.array_equal(P.indptr, U.indptr) and np.array_equal(P.indices, U.indices)
 
