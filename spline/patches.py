@@ -38,6 +38,17 @@ __all__ = [
 ]
 
 
+#: Queries evaluated together: the temporaries (about 0.5 kB a query) stay in reused heap memory
+#: (large ones are fresh pages each time, which cost more than the arithmetic on a VM: 1M values
+#: 1.7 s at once, 0.5 s in chunks).
+CHUNK = 1 << 14
+
+
+def _chunks(n: int) -> list[slice]:
+    """Slices of :data:`CHUNK` queries covering ``range(n)``."""
+    return [slice(lo, min(lo + CHUNK, n)) for lo in range(0, n, CHUNK)]
+
+
 def check_ctrl(faces: np.ndarray, ctrl: np.ndarray) -> np.ndarray:
     """Validate ``ctrl: (F, 21, d)`` against ``faces: (F, 3)``; return it as float64."""
     return as_array(ctrl, "control points", (np.asarray(faces).shape[0], NCTRL, "d"))
@@ -72,17 +83,6 @@ def evaluate(
     for s in _chunks(face_idx.shape[0]):
         out[s] = np.matmul(basis(bary[s])[:, None, :], _gather.rows(ctrl, face_idx[s]))[:, 0]
     return out
-
-
-#: Queries evaluated together: the temporaries (about 0.5 kB a query) stay in reused heap memory
-#: (large ones are fresh pages each time, which cost more than the arithmetic on a VM: 1M values
-#: 1.7 s at once, 0.5 s in chunks).
-CHUNK = 1 << 14
-
-
-def _chunks(n: int) -> list[slice]:
-    """Slices of :data:`CHUNK` queries covering ``range(n)``."""
-    return [slice(lo, min(lo + CHUNK, n)) for lo in range(0, n, CHUNK)]
 
 
 @dataclass(frozen=True)
