@@ -1,7 +1,7 @@
 """Approximation of dense scans (issue 15): trispline against quadric decimation and the interpolating fit.
 
     python benchmarks/bench_approximate.py [--only NAME ...] [--fraction F] [--no-million] [--fast-simplification]
-                                           [--no-interpolation]
+                                           [--no-interpolation] [--methods M ...]
     python benchmarks/bench_approximate.py --denoise [--surfaces bumps,cap] [--data-weights 100,300]
     python benchmarks/bench_approximate.py --compactness [--no-interpolation]
     python benchmarks/bench_approximate.py --speed [--no-million]
@@ -300,6 +300,8 @@ def equal_size(args: argparse.Namespace) -> None:
         names = [n for n in names if n in args.only]
     methods = (["qslim"] + (["fast-simpl"] if args.fast_simplification else []) + list(SPLINES)
                + ([] if args.no_interpolation else ["interp"]))
+    if args.methods:
+        methods = [m for m in methods if m in args.methods]
     print(HEADER)
     print("-" * len(HEADER))
     for name in names:
@@ -532,6 +534,8 @@ def main(argv=None) -> int:
     ap.add_argument("--only", nargs="*", help="row names (mesh files or generated-100k / generated-1M)")
     ap.add_argument("--fraction", type=float, help="vertex fraction for every row (default 2%% / 5%%)")
     ap.add_argument("--no-million", action="store_true", help="skip the 1M-face generated scans")
+    ap.add_argument("--methods", nargs="*", help="equal size: only these methods (qslim, fast-simpl, tri-fit, "
+                                                  "tri-data, interp; qslim first for the ratios)")
     ap.add_argument("--fast-simplification", action="store_true", help="add fast_simplification rows")
     ap.add_argument("--denoise", action="store_true", help="the denoising table on synthetic truth")
     ap.add_argument("--surfaces", default=",".join(DENOISE_SURFACES), help="surfaces of --denoise")
