@@ -217,7 +217,8 @@ class LocalRefairer:
     def _support(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(faces, frame_vertices, halo)`` of free points ``ids``: the patches they control, the
         vertices whose frames are among them, and those patches' faces grown by ``fit_rings - 1``
-        rings of vertices (where the local fits equal the global ones)."""
+        rings of vertices (where the local fits equal the global ones; near the outline, where the uv
+        were given, by the rings of its second fits, :data:`~trispline.fit.targets.OUTLINE_FITS`)."""
         ed, space = self.editor, self.editor.space
         _, face = ed.supports(ids)
         faces = np.unique(face)
@@ -225,8 +226,12 @@ class LocalRefairer:
         frame_vertices = verts[np.isin(space.frame_free[verts, 0], ids)]
         halo = ed.vertex_faces(verts)
         wider = targets.OUTLINE_RING and not self.curved_outline  # an outline vertex's fit: a ring more
-        for _ in range(self.weights.fit_rings - 1 + int(wider)):
+        grow = self.weights.fit_rings - 1 + int(wider)
+        for _ in range(grow):
             halo = ed.vertex_faces(np.unique(space.tri.faces[halo]))
+        if targets.OUTLINE_FITS and not self.curved_outline and space.tri.boundary_vertex_mask[space.tri.faces[halo]].any():
+            for _ in range(max(targets.OUTLINE_FIT_RINGS) - grow):  # the second fits near the outline: their rings
+                halo = ed.vertex_faces(np.unique(space.tri.faces[halo]))
         return faces, frame_vertices, halo
 
     @staticmethod

@@ -12,14 +12,14 @@ width (the nearest ``max_neighbours`` in uv are kept).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
 
 from trispline.spline.topology import outline_vertex_mask
 from trispline.spline.tolerances import DEGENERATE_TANGENT_RTOL, TINY
-from trispline.spline.util.parallel import Workers
+from trispline.spline.util.parallel import Workers, single_threaded_blas
 
 from .progress import Report, map_reporting
 
@@ -31,6 +31,22 @@ MAX_NEIGHBOURS = 32
 #: outline vertices' gradient error 3.2e-4 -> 1.4e-4 (cap), 6.6e-4 -> 2e-15 (monkey saddle, a
 #: cubic), 1.1e-3 -> 5.5e-4 (torus); see docs/fit.md, "The boundary".
 OUTLINE_RING = True
+#: Where :data:`OUTLINE_RING` applies (``local_rbf_fit(outline_fits=True)``: the fit's context where the
+#: uv were given), the vertices on the outline and the ring next to it take a second fit over a wider
+#: neighbourhood (:data:`OUTLINE_FIT_RINGS`, up to :data:`OUTLINE_MAX_NEIGHBOURS` points) whose kernels
+#: carry polynomials of degree 4 to 6 (:data:`OUTLINE_KERNELS`), kept where their leave-one-out error is
+#: below the first fit's: a polyharmonic interpolant loses accuracy toward the edge of its points (its natural
+#: boundary conditions), and every target of a boundary face is read there. An oracle with the true
+#: parameters located the boundary band's error (cap, 800 vertices: band 6.2e-7, inner 5.6e-8): exact
+#: fits at the outline vertices alone leave 1.6e-7, at them and the next ring 5.7e-9 (measured in
+#: docs/fit.md, "The boundary").
+OUTLINE_FITS = True
+#: Rings of the outline vertices' second fits, and of the next ring's.
+OUTLINE_FIT_RINGS = (6, 5)
+OUTLINE_MAX_NEIGHBOURS = 90
+#: The second fits' kernels (power, polynomial degree; as :data:`RBF_KERNELS`); a second fit is kept where
+#: its leave-one-out error is below the first's.
+OUTLINE_KERNELS: tuple[tuple[int, int], ...] = ((7, 4), (7, 5), (7, 6))
 
 
 def area_weighted_normals(V: np.ndarray, F: np.ndarray) -> np.ndarray:
@@ -91,19 +107,43 @@ def padded_neighbours(
         R = sp.csr_matrix(R.multiply(1 - w) + vertex_rings(faces, nv, rings + 1).multiply(w))
         R.eliminate_zeros()
         R.sort_indices()
+    return _nearest_first(R, uv, np.arange(nv), max_neighbours)
+
+
+def _nearest_first(R: sp.csr_matrix, uv: np.ndarray, centre: np.ndarray, max_neighbours: int
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """The rows of ``R (m, nv)`` (bool CSR, sorted, without ``centre``) as padded lists ``(m, K)``, nearest
+    to ``uv[centre] (m,)`` first (ties in column order), truncated to ``max_neighbours``; and their counts."""
+    m = R.shape[0]
     degree = np.diff(R.indptr)
-    row = np.repeat(np.arange(nv), degree)
+    row = np.repeat(np.arange(m), degree)
     slot = np.arange(row.size) - R.indptr[row]  # CSR order within the row: the tie-break
     col = R.indices.astype(np.int64)
-    width = int(degree.max()) if nv else 0
-    dist = np.full((nv, width), np.inf)  # padding sorts last
-    dist[row, slot] = np.linalg.norm(uv[col] - uv[row], axis=1)
-    cols = np.full((nv, width), -1, np.int64)
+    width = int(degree.max()) if m else 0
+    dist = np.full((m, width), np.inf)  # padding sorts last
+    dist[row, slot] = np.linalg.norm(uv[col] - uv[centre[row]], axis=1)
+    cols = np.full((m, width), -1, np.int64)
     cols[row, slot] = col
     count = np.minimum(degree, max_neighbours)
-    K = int(count.max()) if nv else 0
+    K = int(count.max()) if m else 0
     order = np.argsort(dist, axis=1, kind="stable")[:, :K]
     return np.take_along_axis(cols, order, axis=1), count
+
+
+def _rings_of(faces: np.ndarray, nv: int, centre: np.ndarray, rings: np.ndarray) -> sp.csr_matrix:
+    """``(m, nv)`` bool CSR: row ``i`` the vertices within ``rings[i]`` edges of ``centre[i]`` (itself not)."""
+    A = vertex_rings(faces, nv, 1)
+    m = centre.size
+    S = sp.csr_matrix((np.ones(m, np.int8), (np.arange(m), centre)), shape=(m, nv))
+    R, out = S.copy(), sp.csr_matrix((m, nv), dtype=np.int8)
+    for k in range(1, int(rings.max(initial=0)) + 1):
+        R = R + R @ A
+        R.data[:] = 1
+        out = out + sp.csr_matrix(R.multiply((rings == k).astype(np.int8)[:, None]))
+    out = out - out.multiply(S)
+    out.eliminate_zeros()
+    out.sort_indices()
+    return sp.csr_matrix(out)
 
 
 def fitted_normals(fit: "LocalRBFFit", reference: np.ndarray | None = None) -> np.ndarray:
@@ -140,6 +180,20 @@ def _poly3(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Monomials up to degree 3 with the constant: 1, u, v, u^2, uv, v^2, u^3, u^2 v, u v^2, v^3."""
     xx, xy, yy = x * x, x * y, y * y
     return np.stack([np.ones_like(x), x, y, xx, xy, yy, xx * x, xx * y, xy * y, yy * y], axis=-1)
+
+
+def _monomials(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
+    """``(..., (degree + 1)(degree + 2) / 2)`` monomials up to ``degree`` (at least 3), in :func:`_poly3`'s
+    order continued: by total degree, then falling powers of ``u``."""
+    if degree <= 3:
+        return _poly3(x, y)
+    return np.concatenate([_poly3(x, y)] + [np.stack([x ** (k - j) * y ** j for j in range(k + 1)], axis=-1)
+                                            for k in range(4, degree + 1)], axis=-1)
+
+
+def _degree(npoly: int) -> int:
+    """The polynomial degree whose monomials number ``npoly`` (10: 3, 15: 4, 21: 5, 28: 6)."""
+    return int(round((np.sqrt(8 * npoly + 1) - 3) / 2))
 
 
 #: Kernel evaluations per chunk of :meth:`LocalRBFFit.evaluate` (a temporary of 1 MB: in cache).
@@ -191,6 +245,10 @@ class LocalRBFFit:
     lam : (nv, K, d) kernel coefficients (0 on padding)
     coef : (nv, 10, d) polynomial coefficients (cubic monomials, constant first)
     slope : (nv, 2, d) linear trend removed before the interpolation (scaled units)
+    outline : the second fits of the vertices near the outline (``local_rbf_fit(outline_fits=True)``), or
+        None; ``outline_rows (nv,)``: each vertex's row there (-1: its own fit). :meth:`evaluate`,
+        ``grad``, ``power``, ``loo`` and ``slope`` are theirs at those vertices; ``centres``, ``lam``
+        and ``coef`` stay the first fit's
     """
 
     grad: np.ndarray
@@ -203,6 +261,8 @@ class LocalRBFFit:
     lam: np.ndarray
     coef: np.ndarray
     slope: np.ndarray
+    outline: "LocalRBFFit | None" = None
+    outline_rows: np.ndarray | None = None
 
     def evaluate(self, vertex: np.ndarray, points: np.ndarray, report: Report | None = None) -> np.ndarray:
         """Value of vertex ``vertex[i]``'s interpolant at ``points[i]``: ``(n, d)``.
@@ -213,9 +273,16 @@ class LocalRBFFit:
         """
         vertex = np.asarray(vertex, np.int64)
         points = np.asarray(points, float)
-        if points.ndim == 3:
-            return self._evaluate_grouped(vertex, points, report)
-        return self._evaluate_grouped(vertex, points[:, None, :], report)[:, 0]
+        grouped = points if points.ndim == 3 else points[:, None, :]
+        if self.outline is None:
+            out = self._evaluate_grouped(vertex, grouped, report)
+        else:  # the vertices near the outline: their second fits
+            rows = self.outline_rows[vertex]
+            near = rows >= 0
+            out = np.empty(grouped.shape[:2] + (self.value.shape[1],))
+            out[~near] = self._evaluate_grouped(vertex[~near], grouped[~near], report)
+            out[near] = self.outline._evaluate_grouped(rows[near], grouped[near], None)
+        return out if points.ndim == 3 else out[:, 0]
 
     def _evaluate_grouped(self, vertex: np.ndarray, points: np.ndarray, report: Report | None) -> np.ndarray:
         """``(m, p, d)`` values at ``points (m, p, 2)``: chunks of groups of one kernel power, in threads."""
@@ -224,12 +291,13 @@ class LocalRBFFit:
         out = np.empty((m, p, self.value.shape[1]))
         order = np.argsort(self.power[vertex], kind="stable")
         step = max(1, EVAL_CHUNK // max(p * K, 1))
+        degree = _degree(self.coef.shape[1])
 
         def part(lo: int, hi: int) -> None:
             g = order[lo:hi]
             v = vertex[g]
             X = (points[g] - self.origin[v][:, None]) / self.scale[v][:, None, None]  # (b, p, 2)
-            out[g] = self.value[v][:, None] + X @ self.slope[v] + _poly3(X[..., 0], X[..., 1]) @ self.coef[v]
+            out[g] = self.value[v][:, None] + X @ self.slope[v] + _monomials(X[..., 0], X[..., 1], degree) @ self.coef[v]
             power = self.power[v]
             if not power.any():
                 return  # linear fits only: no kernel terms
@@ -280,7 +348,7 @@ class _KernelFits:
     best: np.ndarray  # (nv,) leave-one-out score of the chosen kernel (inf: none)
     power: np.ndarray  # (nv,) chosen power (0: none)
     lam: np.ndarray  # (nv, K, d)
-    coef: np.ndarray  # (nv, _NPOLY, d)
+    coef: np.ndarray  # (nv, npoly, d): _NPOLY, or more for kernels of higher degree
 
 
 def _kernel_matrix(r3: np.ndarray, r2: np.ndarray, pair: np.ndarray, P0: np.ndarray, pad: np.ndarray, p: int,
@@ -322,8 +390,9 @@ def _fit_chunk(out: _KernelFits, lo: int, hi: int, X: np.ndarray, Y: np.ndarray,
     r3 = np.sqrt(r2)
     r3 *= r2
     pair = vc[:, :, None] & vc[:, None, :]
-    P0 = _poly3(Xc[..., 0], Xc[..., 1]) * vc[..., None]
-    B = np.zeros((hi - lo, K + _NPOLY, d + nloo))
+    npoly = out.coef.shape[1]
+    P0 = _monomials(Xc[..., 0], Xc[..., 1], _degree(npoly)) * vc[..., None]
+    B = np.zeros((hi - lo, K + npoly, d + nloo))
     B[:, :K, :d] = Y[lo:hi]
     B[:, np.arange(nloo), d + np.arange(nloo)] = 1.0
     for p, q in kernels:
@@ -372,6 +441,7 @@ def local_rbf_fit(
     max_neighbours: int = MAX_NEIGHBOURS,
     loo_points: int = RBF_LOO_POINTS,
     outline_ring: bool | None = None,
+    outline_fits: bool = False,
     report: Report | None = None,
 ) -> LocalRBFFit:
     """Polyharmonic spline interpolant of each vertex's k-ring data, kernel chosen by cross-validation.
@@ -392,6 +462,8 @@ def local_rbf_fit(
     max_degree : 2 (kernels r^3, r^5) or 3 (also r^7)
     outline_ring : the vertices on the outline of ``faces`` take ``rings + 1`` rings (default
         :data:`OUTLINE_RING`)
+    outline_fits : the vertices on the outline and next to it take second, wider fits of higher degree
+        (:data:`OUTLINE_FITS`; only with ``max_degree`` 3): :attr:`LocalRBFFit.outline`
     report : progress as chunks of vertices finish (:mod:`trispline.fit.progress`)
 
     Returns
@@ -412,28 +484,59 @@ def local_rbf_fit(
     vals = np.asarray(values, float)
     if vals.ndim == 1:
         vals = vals[:, None]
-    nv, d = vals.shape
-    wider = outline_vertex_mask(faces, nv) if (OUTLINE_RING if outline_ring is None else outline_ring) else None
+    nv = vals.shape[0]
+    ring = OUTLINE_RING if outline_ring is None else outline_ring
+    wider = outline_vertex_mask(faces, nv) if ring else None
     nbr, count = padded_neighbours(uv, faces, rings, max_neighbours, wider)
     scale = _local_scale(uv, faces, nv)
-    valid = np.concatenate([np.ones((nv, 1), bool), nbr >= 0], axis=1)  # the vertex first
-    nb = np.concatenate([np.arange(nv)[:, None], np.where(nbr >= 0, nbr, 0)], axis=1)
+    kernels = [(p, q) for p, q in RBF_KERNELS if q <= max_degree]
+    fit = _fit_rows(uv, vals, np.arange(nv), nbr, count, scale, kernels, loo_points, _NPOLY, report)
+    if not (outline_fits and OUTLINE_FITS and max_degree == 3):
+        return fit
+    # the second fits of the vertices on the outline and next to it (OUTLINE_FITS)
+    on = outline_vertex_mask(faces, nv)
+    rows = np.flatnonzero(on | ((vertex_rings(faces, nv, 1) @ on.astype(np.int8)) > 0))
+    if not rows.size:
+        return fit
+    R = _rings_of(faces, nv, rows, np.where(on[rows], *OUTLINE_FIT_RINGS))
+    nbr2, count2 = _nearest_first(R, uv, rows, OUTLINE_MAX_NEIGHBOURS)
+    with single_threaded_blas():  # systems of ~110: BLAS threads per system oversubscribe the cores (40x slower)
+        second = _fit_rows(uv, vals, rows, nbr2, count2, scale[rows], list(OUTLINE_KERNELS), loo_points,
+                           max((q + 1) * (q + 2) // 2 for _, q in OUTLINE_KERNELS), None)
+    # a second fit replaces the first where it predicts the same nearest points better (leave-one-out)
+    better = second.loo < fit.loo[rows]
+    at = np.full(nv, -1, np.int64)
+    at[rows[better]] = np.flatnonzero(better)
+    merged = {k: getattr(fit, k).copy() for k in ("grad", "power", "loo", "slope")}
+    for k, a in merged.items():
+        a[rows[better]] = getattr(second, k)[better]
+    return replace(fit, **merged, outline=second, outline_rows=at)
+
+
+def _fit_rows(uv: np.ndarray, vals: np.ndarray, centre: np.ndarray, nbr: np.ndarray, count: np.ndarray,
+              scale: np.ndarray, kernels: list[tuple[int, int]], loo_points: int, npoly: int,
+              report: Report | None) -> LocalRBFFit:
+    """:func:`local_rbf_fit`'s interpolants of the vertices ``centre (m,)`` over their neighbours
+    ``nbr (m, K)`` (``-1`` padding; ``count (m,)`` of them), in uv scaled by ``scale (m,)``;
+    ``npoly`` polynomial columns (at least those of the highest degree among ``kernels``)."""
+    m, d = centre.size, vals.shape[1]
+    valid = np.concatenate([np.ones((m, 1), bool), nbr >= 0], axis=1)  # the vertex first
+    nb = np.concatenate([centre[:, None], np.where(nbr >= 0, nbr, 0)], axis=1)
     K = nb.shape[1]
-    X = (uv[nb] - uv[:, None, :]) / scale[:, None, None]
+    X = (uv[nb] - uv[centre][:, None, :]) / scale[:, None, None]
     X[~valid] = 0.0
-    Y = vals[nb] - vals[:, None, :]
+    Y = vals[nb] - vals[centre][:, None, :]
     Y[~valid] = 0.0
     slope = _linear_trend(X, Y)
     Y = Y - np.einsum("vki,vid->vkd", X, slope)
 
-    kernels = [(p, q) for p, q in RBF_KERNELS if q <= max_degree]
     nloo = min(loo_points, K)
-    fits = _KernelFits(best=np.full(nv, np.inf), power=np.zeros(nv, np.int64), lam=np.zeros((nv, K, d)),
-                       coef=np.zeros((nv, _NPOLY, d)))
+    fits = _KernelFits(best=np.full(m, np.inf), power=np.zeros(m, np.int64), lam=np.zeros((m, K, d)),
+                       coef=np.zeros((m, npoly, d)))
     # numpy releases the GIL in the batched solves and array arithmetic: a thread each from two chunks on
-    with Workers(nv, parallel_min=RBF_CHUNK + 1) as work:
-        map_reporting(work, lambda lo, hi: _fit_chunk(fits, lo, hi, X, Y, valid, count + 1, kernels, nloo), nv,
+    with Workers(m, parallel_min=RBF_CHUNK + 1) as work:
+        map_reporting(work, lambda lo, hi: _fit_chunk(fits, lo, hi, X, Y, valid, count + 1, kernels, nloo), m,
                       RBF_CHUNK, report)
     loo = np.where(np.isfinite(fits.best), fits.best / np.sqrt(d * np.maximum(nloo, 1)), 0.0)
     return LocalRBFFit(grad=_vertex_gradient(X, fits, slope, scale), power=fits.power, loo=loo, scale=scale,
-                       origin=uv, value=vals, centres=X, lam=fits.lam, coef=fits.coef, slope=slope)
+                       origin=uv[centre], value=vals[centre], centres=X, lam=fits.lam, coef=fits.coef, slope=slope)

@@ -91,7 +91,8 @@ def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, face
     curved_outline : the boundary patches' targets follow the outline faired as a curve
         (:func:`~trispline.fit.boundary.outline_warp`, computed on the whole mesh, so that a halo's
         patches get exactly the whole fit's targets); where it is False (the uv were given) the
-        outline vertices' local fits take a ring more (:data:`~trispline.fit.targets.OUTLINE_RING`)
+        outline vertices' local fits take a ring more (:data:`~trispline.fit.targets.OUTLINE_RING`) and they
+        and the next ring second, wider fits (:data:`~trispline.fit.targets.OUTLINE_FITS`)
     """
     tri = space.tri
     if halo is None:
@@ -108,7 +109,8 @@ def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, face
         weights=w, areas=tri.areas[faces], bary_gradients=tri.bary_gradients[faces],
         faces=renumber(tri.faces[faces]), uv=tri.uv[hv], V=V[hv], halo_faces=hfaces,
         fit=local_rbf_fit(tri.uv[hv], V[hv], hfaces, max_degree=w.fit_degree, rings=w.fit_rings,
-                          outline_ring=targets.OUTLINE_RING and not curved_outline, report=span(report, 0.0, 0.6)),
+                          outline_ring=targets.OUTLINE_RING and not curved_outline, outline_fits=not curved_outline,
+                          report=span(report, 0.0, 0.6)),
         frame_vertices=renumber(fv), frame_scale=space.frame_scale[fv],
         vertex_area=vertex_areas(hfaces, harea, hv.size)[renumber(fv)], data_points=data_points,
         sample_weight=tri.n_vertices / float(tri.areas.sum()), report=span(report, 0.6, 1.0),
