@@ -504,7 +504,7 @@ def local_rbf_fit(
         second = _fit_rows(uv, vals, rows, nbr2, count2, scale[rows], list(OUTLINE_KERNELS), loo_points,
                            max((q + 1) * (q + 2) // 2 for _, q in OUTLINE_KERNELS), None)
     # a second fit replaces the first where it predicts the same nearest points better (leave-one-out)
-    better = second.loo < fit.loo[rows]
+    better = (second.power > 0) & (second.loo < fit.loo[rows])  # power 0: too few points for its kernels
     at = np.full(nv, -1, np.int64)
     at[rows[better]] = np.flatnonzero(better)
     merged = {k: getattr(fit, k).copy() for k in ("grad", "power", "loo", "slope")}
