@@ -107,3 +107,17 @@ def test_the_second_fits_reproduce_linear_data_and_leave_inner_vertices_alone():
     rows = both.outline_rows[~inner]
     np.testing.assert_array_equal(both.evaluate(np.flatnonzero(~inner), uv[~inner] + 0.01),
                                   both.outline.evaluate(rows, uv[~inner] + 0.01))
+
+
+def test_a_second_fit_without_a_kernel_never_replaces_the_first():
+    # 25 points: too few for the second fits' degree 4 (30); their leave-one-out error reads 0 there, and
+    # the linear trend had replaced every outline fit (bench_accuracy --sparse, sphere at 25 points: 3.5x worse)
+    rng = np.random.default_rng(4)
+    uv = np.r_[[[0, 0], [1, 0], [1, 1], [0, 1]], rng.uniform(0.05, 0.95, (21, 2))]
+    from scipy.spatial import Delaunay
+
+    F = Delaunay(uv).simplices
+    z = np.sqrt(4.0 - np.sum((uv - 0.5) ** 2, 1))
+    first, both = local_rbf_fit(uv, z, F), local_rbf_fit(uv, z, F, outline_fits=True)
+    assert (both.power[both.outline_rows >= 0] > 0).all()
+    np.testing.assert_array_equal(both.grad, first.grad)  # nothing to replace with
