@@ -72,7 +72,10 @@ def test_quick_bench_numbers_are_sane(bench):
     for method in bench.METHODS_3D:
         assert all(np.isfinite(r[method][c]) and r[method][c] > 0 for c in bench.COLUMNS), method
         assert r[method]["max"] >= r[method]["rms"]
-    assert t["rms"] < 2e-5 and t["rms"] <= 1.5 * true["rms"]  # measured 3.8e-6, 0.55x true uv
+    # measured 3.8e-6, 0.55x true uv; 1.9e-6, 1.98x since the true-uv fit's second fits near the outline
+    # (targets.OUTLINE_FITS: its band 7.6x -> 1.9x its interior; the fit's own map keeps the first fits)
+    assert t["rms"] < 2e-5 and t["rms"] <= 2.5 * true["rms"]
+    assert true["band"] <= 2.0 * true["inner"]
     assert all(r[p]["rms"] >= 50 * t["rms"] for p in bench.PEERS)  # measured 181x, 204x, 969x
     assert t["normal"] < r["PN"]["normal"]
     # interpolating peers sample the mesh vertices exactly; Loop's limit surface is off them
