@@ -127,9 +127,10 @@ def evaluate_derivatives(
     out = [np.empty((n, d)) for _ in range(6 if second else 3)]
     for s in _chunks(n):
         G = face_bary_gradients(uv, np.asarray(faces)[face_idx[s]])  # (m, 3, 2)
-        values, grad, hess = de_casteljau_derivatives(_gather.rows(ctrl, face_idx[s]), bary[s], second)
+        c = _gather.rows(ctrl, face_idx[s])  # (m, 21, d)
+        _, grad, hess = de_casteljau_derivatives(c, bary[s], second)
         Gu, Gv = G[:, :, 0], G[:, :, 1]
-        out[0][s] = values
+        out[0][s] = np.matmul(basis(bary[s])[:, None, :], c)[:, 0]  # as evaluate(): the same bits
         out[1][s] = np.einsum("amd,ma->md", grad, Gu)
         out[2][s] = np.einsum("amd,ma->md", grad, Gv)
         if second:  # (3, 3, m, d)
