@@ -19,7 +19,6 @@ there, each step a conjugate-gradient solve preconditioned by that same factor.
 """
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass
 
 import jax
@@ -151,22 +150,14 @@ def quadric_reference(dom: CoarseDomain, V: np.ndarray) -> Polynomial:
     denoised vertices (each on its cell's robust quadric), so outliers barely move it.
 
     It depends on ``dom.scan_uv`` and ``dom.analysis.smooth`` alone, which the refinement rounds'
-    domains share: the last one is kept while those arrays live (1M scan points: 0.3 s a fit)."""
-    uv, smooth = dom.scan_uv, dom.analysis.smooth
-    last = _LAST_QUADRIC.get("key")
-    if last is not None and last[0]() is uv and last[1]() is smooth:
-        return _LAST_QUADRIC["value"]
+    domains share: the pipeline computes it once per domain family and passes it on as ``reference``
+    (1M scan points: 0.3 s a fit)."""
+    uv = dom.scan_uv
     centre = 0.5 * (uv.min(0) + uv.max(0))
     x = uv - centre
     m = x[:, :1] ** QUADRIC_POWERS[:, 0] * x[:, 1:] ** QUADRIC_POWERS[:, 1]  # (n, 6)
-    coeffs = np.linalg.lstsq(m, smooth, rcond=None)[0]
-    out = Polynomial(powers=QUADRIC_POWERS, coeffs=coeffs, centre=centre)
-    _LAST_QUADRIC.update(key=(weakref.ref(uv), weakref.ref(smooth)), value=out)
-    return out
-
-
-#: :func:`quadric_reference`'s last answer, under weak references to its inputs.
-_LAST_QUADRIC: dict = {}
+    coeffs = np.linalg.lstsq(m, dom.analysis.smooth, rcond=None)[0]
+    return Polynomial(powers=QUADRIC_POWERS, coeffs=coeffs, centre=centre)
 
 
 def bend_face_weights(dom: CoarseDomain) -> np.ndarray:
@@ -221,7 +212,8 @@ def _reference_net(dom: CoarseDomain, V: np.ndarray, reference: Polynomial | Non
 def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX_WEIGHTS,
                            corners: str = "data", candidates: tuple[float, ...] = DATA_WEIGHTS,
                            holdout: int = HOLDOUT, located: tuple[np.ndarray, np.ndarray] | None = None,
-                           unreached: np.ndarray | None = None) -> tuple[float, dict[float, float]]:
+                           unreached: np.ndarray | None = None, reference: Polynomial | None = None
+                           ) -> tuple[float, dict[float, float]]:
     """The data weight of :data:`DATA_WEIGHTS` whose plain fit best predicts held-out scan vertices.
 
     Every ``holdout``-th scan vertex (not a coarse vertex) is left out; the others are fitted
@@ -231,7 +223,8 @@ def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeig
     all but the worst 1% (outliers). Noisy scans want a small weight (more smoothing), clean
     ones with detail a large one. ``located``: the scan's parameters (default :func:`scan_location`;
     the pipeline passes :func:`corrected_location`), ``unreached (n,)`` its points left out (default
-    :func:`scan_location`'s). Returns ``(weight, {weight: score})``.
+    :func:`scan_location`'s), ``reference`` the bend term's (default :func:`quadric_reference`).
+    Returns ``(weight, {weight: score})``.
     """
     face, bary, unreached = _location(dom, located, unreached)
     n = V.shape[0]
@@ -243,7 +236,7 @@ def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeig
     Vn = (V - centre) / size
     space = build_space(dom.triangulation)
     corner_xyz = Vn[dom.vertices] if corners == "data" else None
-    ref_net = _reference_net(dom, V, None, centre, size)
+    ref_net = _reference_net(dom, V, reference, centre, size)
     train = DataPoints(face[train], bary[train], Vn[train])
     bw, edge = bend_face_weights(dom), outline_faces(dom)
     sys = plain_system(space, train, corner_xyz, weights, "l2", ref_net, bend_weight=bw * ~edge)

@@ -33,6 +33,7 @@ from trispline.spline.checks import as_array
 from trispline.spline.continuity import continuity_report
 from trispline.spline.errors import InputError
 from trispline.spline.index import CORNER
+from trispline.spline.polynomial import Polynomial
 from trispline.spline.surface import SplineSurface
 from trispline.spline.tolerances import MIN_RELATIVE_AREA_3D
 from trispline.spline.util.timer import StageTimer
@@ -43,7 +44,8 @@ from ..weights import FitWeights
 from .analysis import SPIKE_LEVELS
 from .deviation import Deviation, summary
 from .domain import DEFAULT_FRACTION, CoarseDomain, coarse_domain, insert
-from .fit import APPROX_WEIGHTS, corrected_location, cross_validated_weight, fit_domain, scan_location
+from .fit import (APPROX_WEIGHTS, corrected_location, cross_validated_weight, fit_domain, quadric_reference,
+                  scan_location)
 from .problem import CORNER_MODES
 from .refine import Round, measure, pick_vertices
 
@@ -160,6 +162,8 @@ class _Options:
     loss: str
     weights: FitWeights
     auto: bool
+    #: the bend term's reference of the current domain family (:func:`~.fit.quadric_reference`, once)
+    reference: Polynomial | None = None
 
 
 def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corners, loss, weights) -> _Options:
@@ -331,6 +335,7 @@ def approximate_surface(
     uv, faces, parameterization = _domain_uv(V, F, uv, param)
     stage("parameterize")
     dom = _first_domain(V, faces, uv, opt, max_rounds)
+    opt = dataclasses.replace(opt, reference=quadric_reference(dom, V))
     stage("domain")
     if opt.auto:
         opt = dataclasses.replace(opt, weights=_smoothing(dom, V, opt))
@@ -349,6 +354,7 @@ def _whole_budget(V: np.ndarray, F: np.ndarray, uv: np.ndarray, opt: _Options, s
     """A noise-dominated scan (a budget alone): one domain of the whole budget, its own cross-validated
     smoothing (not the seed's spacing's) and one round; ``(domain, options, round, history, stop)``."""
     dom = coarse_domain(V, F, uv, n_vertices=opt.budget)
+    opt = dataclasses.replace(opt, reference=quadric_reference(dom, V))
     stage("domain")
     if opt.auto:
         opt = dataclasses.replace(opt, weights=_smoothing(dom, V, opt))
@@ -362,7 +368,8 @@ def _smoothing(dom: CoarseDomain, V: np.ndarray, opt: _Options, located: tuple |
     """:data:`~.fit.APPROX_WEIGHTS` with the cross-validated data weight of ``dom`` (scan at ``located``,
     ``unreached`` left out)."""
     return dataclasses.replace(APPROX_WEIGHTS, data=cross_validated_weight(dom, V, corners=opt.corners,
-                                                                           located=located, unreached=unreached)[0])
+                                                                           located=located, unreached=unreached,
+                                                                           reference=opt.reference)[0])
 
 
 def _located(dom: CoarseDomain, previous: Round | None) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
@@ -407,7 +414,8 @@ def _round_fit(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: np.ndarra
     pw = None
     for _ in range(1 + (IRLS_STEPS if scale is not None else 0)):
         fit = fit_domain(dom, V, weights=opt.weights, loss=opt.loss, scale=scale, corners=opt.corners,
-                         located=located, unreached=unreached, point_weight=pw, gauss_newton=False)
+                         located=located, unreached=unreached, point_weight=pw, reference=opt.reference,
+                         gauss_newton=False)
         if scale is not None:
             pw = _irls_weights(fit, located, V, scale, opt.loss)
     return fit, located
@@ -513,7 +521,8 @@ def _final(V: np.ndarray, F: np.ndarray, best: Round, opt: _Options, scale: np.n
     for k in range(1 if opt.refine else 1 + FINAL_CORRECTIONS):
         pw = None if scale is None else _irls_weights(state.fit, located, V, scale, opt.loss)
         fit = fit_domain(best.dom, V, weights=weights, loss=opt.loss, scale=scale, corners=opt.corners,
-                         located=located, unreached=unreached, point_weight=pw, gauss_newton=scale is not None)
+                         located=located, unreached=unreached, point_weight=pw, reference=opt.reference,
+                         gauss_newton=scale is not None)
         state = measure(best.dom, V, fit, located, scale is not None, seconds=time.perf_counter() - t0,
                         outline=not opt.refine, scan_faces=None if opt.refine else F)
         state = dataclasses.replace(state, corrections=k + (not opt.refine))
