@@ -103,31 +103,54 @@ def padded_neighbours(
     nv = uv.shape[0]
     R = vertex_rings(faces, nv, rings)
     if wider is not None and wider.any():
+        # the wider rows' rings + 1 rings made for them alone (the same sets as vertex_rings(rings + 1)'s
+        # rows; at 100k faces 0.05 against 0.4 s for all rows) and put in place of theirs
+        rows = np.flatnonzero(wider)
         w = wider.astype(np.int8)[:, None]
-        R = sp.csr_matrix(R.multiply(1 - w) + vertex_rings(faces, nv, rings + 1).multiply(w))
+        place = sp.csr_matrix((np.ones(rows.size, np.int8), (rows, np.arange(rows.size))), shape=(nv, rows.size))
+        R = sp.csr_matrix(R.multiply(1 - w) + place @ _rings_of(faces, nv, rows, np.full(rows.size, rings + 1)))
         R.eliminate_zeros()
         R.sort_indices()
     return _nearest_first(R, uv, np.arange(nv), max_neighbours)
 
 
+#: Rows of :func:`_nearest_first` sorted per chunk: its padded ``(rows, width)`` arrays stay small where a
+#: few rows are very wide (a random Delaunay scan's 3-rings reach 292 vertices beside a mean of 39).
+NEAREST_CHUNK = 4096
+
+
 def _nearest_first(R: sp.csr_matrix, uv: np.ndarray, centre: np.ndarray, max_neighbours: int
                    ) -> tuple[np.ndarray, np.ndarray]:
     """The rows of ``R (m, nv)`` (bool CSR, sorted, without ``centre``) as padded lists ``(m, K)``, nearest
-    to ``uv[centre] (m,)`` first (ties in column order), truncated to ``max_neighbours``; and their counts."""
+    to ``uv[centre] (m,)`` first (ties in column order), truncated to ``max_neighbours``; and their counts.
+
+    In chunks of :data:`NEAREST_CHUNK` rows, each padded to its own widest row (the padding sorts last)."""
     m = R.shape[0]
     degree = np.diff(R.indptr)
-    row = np.repeat(np.arange(m), degree)
-    slot = np.arange(row.size) - R.indptr[row]  # CSR order within the row: the tie-break
-    col = R.indices.astype(np.int64)
-    width = int(degree.max()) if m else 0
-    dist = np.full((m, width), np.inf)  # padding sorts last
-    dist[row, slot] = np.linalg.norm(uv[col] - uv[centre[row]], axis=1)
-    cols = np.full((m, width), -1, np.int64)
-    cols[row, slot] = col
     count = np.minimum(degree, max_neighbours)
     K = int(count.max()) if m else 0
-    order = np.argsort(dist, axis=1, kind="stable")[:, :K]
-    return np.take_along_axis(cols, order, axis=1), count
+    out = np.full((m, K), -1, np.int64)
+    for lo in range(0, m, NEAREST_CHUNK):
+        hi = min(lo + NEAREST_CHUNK, m)
+        a, b = R.indptr[lo], R.indptr[hi]
+        deg = degree[lo:hi]
+        row = np.repeat(np.arange(hi - lo), deg)
+        slot = np.arange(b - a) - (R.indptr[lo:hi] - a)[row]  # CSR order within the row: the tie-break
+        col = R.indices[a:b].astype(np.int64)
+        # per coordinate: the rounding of np.linalg.norm's sqrt(du^2 + dv^2), without (n, 2) temporaries
+        du = uv[col, 0] - np.repeat(uv[centre[lo:hi], 0], deg)
+        dv = uv[col, 1] - np.repeat(uv[centre[lo:hi], 1], deg)
+        du *= du
+        dv *= dv
+        du += dv
+        width = int(deg.max(initial=0))
+        dist = np.full((hi - lo, width), np.inf)
+        dist[row, slot] = np.sqrt(du, out=du)
+        cols = np.full((hi - lo, width), -1, np.int64)
+        cols[row, slot] = col
+        k = min(K, width)
+        out[lo:hi, :k] = np.take_along_axis(cols, np.argsort(dist, axis=1, kind="stable")[:, :k], axis=1)
+    return out, count
 
 
 def _rings_of(faces: np.ndarray, nv: int, centre: np.ndarray, rings: np.ndarray) -> sp.csr_matrix:

@@ -205,10 +205,13 @@ def _lexsorted_neighbours(uv, faces, rings, max_neighbours, wider=None):
     return nbr, count
 
 
-@pytest.mark.parametrize("rings, most", [(3, 32), (2, 32), (1, 4)])
-def test_neighbour_order_equals_a_lexicographic_sort(rings, most):
+@pytest.mark.parametrize("rings, most, chunk", [(3, 32, None), (2, 32, None), (1, 4, None), (3, 32, 7)])
+def test_neighbour_order_equals_a_lexicographic_sort(rings, most, chunk, monkeypatch):
+    from trispline.fit import targets
     from trispline.spline.testing.domains import grid
 
+    if chunk is not None:  # rows sorted in chunks of their own widths (targets.NEAREST_CHUNK): many chunk edges
+        monkeypatch.setattr(targets, "NEAREST_CHUNK", chunk)
     for uv, F in (random_delaunay(300, holes=1, seed=2), grid(9, 7)):  # the grid has ties in distance
         nbr, count = padded_neighbours(uv, F, rings, most)
         ref_nbr, ref_count = _lexsorted_neighbours(uv, F, rings, most)
