@@ -49,6 +49,12 @@ def _interior_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarr
     return h1 // 3, h1 % 3, h2 // 3, h2 % 3
 
 
+def _is_fixed(a: np.ndarray, b: np.ndarray, fixed: np.ndarray, k: int) -> np.ndarray:
+    """``(e,)`` bool: whether the edges ``(a, b)`` (each ``(e,)``) are among ``fixed (s, 2)``, either way round."""
+    key = lambda p, q: np.minimum(p, q) * k + np.maximum(p, q)  # noqa: E731
+    return np.isin(key(a, b), key(fixed[:, 0], fixed[:, 1]))
+
+
 def _bary(p: np.ndarray, A: np.ndarray, B: np.ndarray, C: np.ndarray) -> np.ndarray:
     """Barycentric coordinates ``(m, 3)`` of uv points ``p (m, 2)`` in triangles ``(A, B, C)`` (each ``(m, 2)``)."""
     e1, e2, q = B - A, C - A, p - A
@@ -65,11 +71,12 @@ def _sq_error(P: np.ndarray, X: np.ndarray, tri: np.ndarray, bary: np.ndarray) -
 
 
 def flip_to_data(uv: np.ndarray, faces: np.ndarray, X: np.ndarray, scan_uv: np.ndarray, P: np.ndarray,
-                 sweeps: int | None = None) -> np.ndarray:
+                 sweeps: int | None = None, fixed: np.ndarray | None = None) -> np.ndarray:
     """``faces (f, 3)`` with interior edges flipped toward the data; see the module docstring.
 
     uv : (k, 2) coarse vertices; faces : (f, 3) counter-clockwise; X : (k, 3) their 3D positions
     scan_uv : (n, 2), P : (n, 3) the scan points that judge the flips (outside the domain: ignored)
+    fixed : (s, 2) vertex pairs (into ``uv``) of edges that never flip (constrained segments)
     """
     sweeps = FLIP_SWEEPS if sweeps is None else sweeps
     faces = np.array(faces, np.int64, copy=True)
@@ -92,6 +99,8 @@ def flip_to_data(uv: np.ndarray, faces: np.ndarray, X: np.ndarray, scan_uv: np.n
         n1 = np.column_stack([a, d, c])  # the quad a, d, b, c counter-clockwise, split along c d
         n2 = np.column_stack([d, b, c])
         ok = triangle_angles(uv[n1]).min(1) >= FLIP_MIN_ANGLE
+        if fixed is not None and fixed.size:
+            ok &= ~_is_fixed(a, b, fixed, uv.shape[0])
         ok &= triangle_angles(uv[n2]).min(1) >= FLIP_MIN_ANGLE
         for t in (n1, n2):  # both counter-clockwise: the quad is convex
             e1, e2 = uv[t[:, 1]] - uv[t[:, 0]], uv[t[:, 2]] - uv[t[:, 0]]
