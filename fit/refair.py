@@ -229,7 +229,8 @@ class LocalRefairer:
         grow = self.weights.fit_rings - 1 + int(wider)
         for _ in range(grow):
             halo = ed.vertex_faces(np.unique(space.tri.faces[halo]))
-        if targets.OUTLINE_FITS and not self.curved_outline and space.tri.boundary_vertex_mask[space.tri.faces[halo]].any():
+        if (targets.outline_fit_kernels(self.curved_outline)
+                and space.tri.boundary_vertex_mask[space.tri.faces[halo]].any()):
             for _ in range(max(targets.OUTLINE_FIT_RINGS) - grow):  # the second fits near the outline: their rings
                 halo = ed.vertex_faces(np.unique(space.tri.faces[halo]))
         return faces, frame_vertices, halo

@@ -58,6 +58,9 @@ RINGS = 2
 WIDTH = 2.0
 #: Boundary vertices each side in a boundary vertex's fit.
 BOUNDARY_REACH = 3
+#: Whether the fits along a boundary loop read its 3D arc length from circles through each vertex and its
+#: neighbours (:func:`_arc_lengths`) rather than from the chords.
+ARC_LENGTH = True
 #: At most this many neighbours (the nearest) in an interior fit.
 MAX_NEIGHBOURS = 40
 #: A boundary vertex whose fit along its loop would move it by more than this fraction of its
@@ -210,6 +213,23 @@ def loop_corners(P: np.ndarray) -> np.ndarray:
     return cos < np.cos(np.radians(SMOOTH_CORNER_DEGREES))
 
 
+def _arc_lengths(P: np.ndarray, corner: np.ndarray) -> np.ndarray:
+    """``(n,)`` arc length of the closed polyline ``P (n, 3)``'s segments ``i -> i + 1`` read as arcs of
+    circles: each chord ``c`` lengthened to ``2 asin(c k / 2) / k``, ``k`` the mean curvature of the
+    circles through its end vertices and their neighbours (none at a ``corner (n,)``). The chords
+    alone are short by ``c^3 k^2 / 24``, which varies from edge to edge with the spacing: an
+    irregularity of the loop's parameter that the fits along it copy into the uv. Exact on a circle."""
+    a, b = P - np.roll(P, 1, 0), np.roll(P, -1, 0) - P
+    la, lb, lab = (np.linalg.norm(x, axis=1) for x in (a, b, a + b))
+    k = 2.0 * np.linalg.norm(np.cross(a, b), axis=1) / np.maximum(la * lb * lab, np.finfo(float).tiny)
+    k = np.where(corner, np.nan, k)
+    ends = np.stack([k, np.roll(k, -1)], 1)  # the segment's two end vertices
+    n_ok = np.isfinite(ends).sum(1)
+    kseg = np.where(n_ok > 0, np.nansum(ends, 1) / np.maximum(n_ok, 1), 0.0)
+    x = np.clip(0.5 * lb * kseg, 0.0, 1.0)
+    return np.where(x > 1e-8, np.arcsin(x) / np.maximum(x, 1e-300), 1.0 + x * x / 6.0) * lb
+
+
 def _boundary(V: np.ndarray, uv: np.ndarray, loop: np.ndarray, degree: int) -> np.ndarray:
     """New uv ``(n, 2)`` of the vertices of ``loop (n,)``: fits along the loop, none across a corner."""
     nbr, weights = _boundary_weights(V, loop, degree)
@@ -226,9 +246,9 @@ def _boundary_weights(V: np.ndarray, loop: np.ndarray, degree: int) -> tuple[np.
     if n < 2 * BOUNDARY_REACH + 1:
         return np.repeat(loop[:, None], 2 * BOUNDARY_REACH + 1, 1), own
     P = V[loop]
-    seg = np.linalg.norm(np.roll(P, -1, 0) - P, axis=1)  # seg[i]: i -> i + 1
-    arc = np.concatenate([[0.0], np.cumsum(seg)])
     corner = loop_corners(P)
+    seg = _arc_lengths(P, corner) if ARC_LENGTH else np.linalg.norm(np.roll(P, -1, 0) - P, axis=1)
+    arc = np.concatenate([[0.0], np.cumsum(seg)])
     off = np.arange(-BOUNDARY_REACH, BOUNDARY_REACH + 1)
     i = np.arange(n)[:, None] + off  # (n, 2R+1), unwrapped
     s = arc[i % n] + np.floor_divide(i, n) * arc[-1] - arc[np.arange(n)][:, None]

@@ -91,8 +91,9 @@ def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, face
     curved_outline : the boundary patches' targets follow the outline faired as a curve
         (:func:`~trispline.fit.boundary.outline_warp`, computed on the whole mesh, so that a halo's
         patches get exactly the whole fit's targets); where it is False (the uv were given) the
-        outline vertices' local fits take a ring more (:data:`~trispline.fit.targets.OUTLINE_RING`) and they
-        and the next ring second, wider fits (:data:`~trispline.fit.targets.OUTLINE_FITS`)
+        outline vertices' local fits take a ring more (:data:`~trispline.fit.targets.OUTLINE_RING`); the
+        outline vertices and the next ring take second, wider fits either way
+        (:func:`~trispline.fit.targets.outline_fit_kernels`)
     """
     tri = space.tri
     if halo is None:
@@ -105,11 +106,14 @@ def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, face
     fv = np.arange(tri.n_vertices) if frame_vertices is None else np.asarray(frame_vertices, np.int64)
     harea = tri.areas if halo is None else tri.areas[halo]
     w = weights
+    second = targets.outline_fit_kernels(curved_outline)
     return TermContext(
         weights=w, areas=tri.areas[faces], bary_gradients=tri.bary_gradients[faces],
         faces=renumber(tri.faces[faces]), uv=tri.uv[hv], V=V[hv], halo_faces=hfaces,
         fit=local_rbf_fit(tri.uv[hv], V[hv], hfaces, max_degree=w.fit_degree, rings=w.fit_rings,
-                          outline_ring=targets.OUTLINE_RING and not curved_outline, outline_fits=not curved_outline,
+                          outline_ring=targets.OUTLINE_RING and not curved_outline, outline_fits=bool(second),
+                          outline_kernels=second or None,
+                          outline_loo=targets.OWN_MAP_OUTLINE_LOO if curved_outline else None,
                           report=span(report, 0.0, 0.6)),
         frame_vertices=renumber(fv), frame_scale=space.frame_scale[fv],
         vertex_area=vertex_areas(hfaces, harea, hv.size)[renumber(fv)], data_points=data_points,

@@ -22,6 +22,26 @@ def _square(n: int = 300, seed: int = 0) -> tuple[np.ndarray, np.ndarray, list[n
     return V, F, validate_mesh(V, F).boundary_loops
 
 
+def test_a_loops_arc_lengths_are_exact_on_a_circle_and_the_chords_on_straight_sides():
+    rng = np.random.default_rng(3)
+    t = np.sort(rng.uniform(0, 2 * np.pi, 40))
+    r = 1.7
+    P = np.column_stack([r * np.cos(t), r * np.sin(t), np.full(40, 0.3)])
+    arcs = smooth_module._arc_lengths(P, np.zeros(40, bool))
+    exact = r * np.diff(np.append(t, t[0] + 2 * np.pi))
+    chords = np.linalg.norm(np.roll(P, -1, 0) - P, axis=1)
+    np.testing.assert_allclose(arcs, exact, rtol=1e-12)
+    assert np.abs(chords - exact).max() > 1e-4 * exact.max()  # what the arcs correct
+    # a square with 3 points a side: straight, and its corners take no curvature across them
+    s = np.array([0.0, 0.5, 1.0])
+    sq = np.concatenate([np.column_stack([s[:-1], 0 * s[:-1]]), np.column_stack([1 + 0 * s[:-1], s[:-1]]),
+                         np.column_stack([1 - s[:-1], 1 + 0 * s[:-1]]), np.column_stack([0 * s[:-1], 1 - s[:-1]])])
+    sq = np.column_stack([sq, np.zeros(len(sq))])
+    corner = smooth_module.loop_corners(sq)
+    assert corner.sum() == 4
+    np.testing.assert_allclose(smooth_module._arc_lengths(sq, corner), 0.5, rtol=1e-14)
+
+
 @pytest.mark.parametrize("dim, degree", [(1, 3), (2, 3), (2, 2), (2, 1)])
 def test_fit_weights_reproduce_polynomials_of_their_degree(dim, degree):
     rng = np.random.default_rng(1)
