@@ -140,7 +140,7 @@ def fit_surface(
     data_points : DataPoints or (face (n,), bary (n, 3), xyz (n, 3)), optional
     solver : an optimistix least-squares solver; default Gauss--Newton with the
         host sparse Cholesky (direct when the energy is quadratic, factor-preconditioned
-        CG when ``weights.angle > 0``)
+        CG and a line search when ``weights.angle > 0``: :func:`~trispline.fit.gauss_newton.iterate`)
     progress : ``progress(stage, seconds)`` called after each stage (the names of
         :data:`~trispline.fit.stages.FIT_STAGES`); a callback taking a third argument is
         also called as ``progress(stage, seconds so far, fraction)`` while a long stage's

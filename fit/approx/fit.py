@@ -21,7 +21,6 @@ there, each step a solve with that same factor (:data:`GN_MODE`) and a backtrack
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
 
 import jax
 import jax.numpy as jnp
@@ -37,6 +36,7 @@ from trispline.spline.surface import SplineSurface
 from trispline.spline.util.spd import spd_backend
 from trispline.spline.tolerances import APPROX_CG_RTOL, APPROX_CONVERGED_GRAD_RTOL, APPROX_GN_ATOL, APPROX_GN_RTOL
 
+from ..gauss_newton import DescentGaussNewton
 from ..solve import FactorSolver, SparseCholesky
 from ..weights import FitWeights
 from .domain import CoarseDomain
@@ -316,38 +316,6 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
     surface = SplineSurface(space.tri.uv, dom.faces, ctrl)  # the domain used: nearly singular vertices snapped
     return CoarseFit(surface=surface, free=free, space=space, energies=energies, iterations=steps, converged=ok,
                      n_unknowns=k, unreached=unreached)
-
-
-def _quiet(**info) -> None:
-    """optimistix's per-step report: nothing."""
-
-
-class DescentGaussNewton(optx.AbstractGaussNewton):
-    """Gauss--Newton with a backtracking Armijo line search (optimistix's ``GaussNewton`` takes every full step).
-
-    The robust fit's steps solve with the reweighted factor of its start (:data:`GN_MODE`), whose
-    weights are the robust loss's at an earlier fit: where a residual has fallen below its scale
-    since, that factor underestimates the curvature (by up to the old residual over the scale) and a
-    full step overshoots. Without the search the iteration can climb: on the noise-free 1M generated
-    scan with ``corners="fit"`` (10k coarse vertices) its 50 steps ended at 23x the start's objective
-    and 41x farther from the true surface (RMS 1.0e-5 of the diagonal against 2.5e-7; with the search
-    1.1e-7), at 100k faces 2% above it (7.7e-6 against 2.1e-6); a 60-vertex bumps scan started at
-    mismatched weights climbed to 11x. The search halves a step until it lowers the objective enough,
-    so the iteration descends to the same minimum from any start.
-    """
-
-    rtol: float
-    atol: float
-    norm: Callable
-    descent: optx.NewtonDescent
-    search: optx.BacktrackingArmijo
-    verbose: Callable
-
-    def __init__(self, rtol: float, atol: float, norm: Callable, linear_solver: FactorSolver):
-        self.rtol, self.atol, self.norm = rtol, atol, norm
-        self.descent = optx.NewtonDescent(linear_solver=linear_solver)
-        self.search = optx.BacktrackingArmijo()
-        self.verbose = _quiet
 
 
 def _location(dom: CoarseDomain, located: tuple[np.ndarray, np.ndarray] | None, unreached: np.ndarray | None
