@@ -154,6 +154,7 @@ class CoarseDomain:
     analysis : the :class:`ScanAnalysis` the vertices were chosen with
     creases : (s, 2) scan ids, the constrained segments along the sides of the crease strips
         (:mod:`.creases`; empty without creases): edges of the triangulation that never flip
+    scan_faces : (m, 3) the scan's faces, counter-clockwise in ``scan_uv`` (what :attr:`warped_uv` needs), or None
     """
 
     uv: np.ndarray
@@ -166,6 +167,16 @@ class CoarseDomain:
     stats: DomainStats
     analysis: ScanAnalysis
     creases: np.ndarray = field(default_factory=lambda: np.empty((0, 2), np.int64))
+    scan_faces: np.ndarray | None = None
+
+    @cached_property
+    def warped_uv(self) -> np.ndarray:
+        """``(n, 2)`` the scan's parameters in this domain: ``scan_uv`` with the outline on the boundary
+        chords (:func:`~.warp.outline_warp`; ``scan_uv`` itself without ``scan_faces`` or with
+        :data:`~.warp.OUTLINE_WARP` off). The coarse vertices keep their uv."""
+        from .warp import OUTLINE_WARP, outline_warp
+
+        return outline_warp(self, self.scan_faces) if OUTLINE_WARP and self.scan_faces is not None else self.scan_uv
 
     @cached_property
     def triangulation(self) -> Triangulation:
@@ -370,9 +381,9 @@ def _triangulate(uv: np.ndarray, boundary: list[np.ndarray], interior: np.ndarra
 
 def _domain(scan_uv: np.ndarray, boundary: list[np.ndarray], interior: np.ndarray, corners: np.ndarray,
             loops: tuple[np.ndarray, ...], position: np.ndarray, analysis: ScanAnalysis, spacing: float,
-            creases: np.ndarray | None = None) -> CoarseDomain:
+            creases: np.ndarray | None = None, scan_faces: np.ndarray | None = None) -> CoarseDomain:
     """Triangulate (with the crease strips' segments ``creases (s, 2)``, scan ids), validate and collect the
-    statistics."""
+    statistics; ``scan_faces (m, 3)``: the scan's faces (kept for :attr:`CoarseDomain.warped_uv`)."""
     boundary, ids, faces, creases = _triangulate(scan_uv, boundary, interior, loops, position, creases)
     uv = np.ascontiguousarray(scan_uv[ids])
     data = np.where(analysis.spike[:, None], analysis.smooth, analysis.points)  # spikes judge nothing
@@ -396,7 +407,8 @@ def _domain(scan_uv: np.ndarray, boundary: list[np.ndarray], interior: np.ndarra
     for a in (uv, faces, ids, corners, creases, *boundary):
         a.setflags(write=False)
     dom = CoarseDomain(uv=uv, faces=faces, vertices=ids, boundary=tuple(boundary), corners=corners,
-                       loops=loops, scan_uv=scan_uv, stats=stats, analysis=analysis, creases=creases)
+                       loops=loops, scan_uv=scan_uv, stats=stats, analysis=analysis, creases=creases,
+                       scan_faces=scan_faces)
     dom.__dict__["triangulation"] = tri  # the cached property, already validated
     return dom
 
@@ -411,7 +423,7 @@ def _loop_position(loops: tuple[np.ndarray, ...], n: int) -> np.ndarray:
 
 def coarse_domain(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, n_vertices: int | None = None,
                   spacing: float | None = None, adapt: float = ADAPT, corner_angle: float = CORNER_ANGLE,
-                  creases: bool = True) -> CoarseDomain:
+                  creases: bool = True, warp: bool = True) -> CoarseDomain:
     """Choose and triangulate a subset of the scan's vertices; see the module docstring.
 
     Parameters
@@ -425,6 +437,8 @@ def coarse_domain(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, n_vertices: i
     adapt : exponent of the curvature in the density (0: uniform spacing in 3D)
     corner_angle : turn of the outline (degrees) kept as a corner
     creases : thin strips of patches along the scan's creases (:mod:`.creases`; clean scans only)
+    warp : the scan's parameters follow the boundary chords (:attr:`CoarseDomain.warped_uv`; off for a
+        caller's own uv, at which the surface is to be evaluated)
 
     Raises
     ------
@@ -470,7 +484,7 @@ def coarse_domain(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, n_vertices: i
             break
         interior = moved[nb:]
     median_spacing = float(np.median(sizing.spacing3d(lam, uv[:: max(1, n // 4096)])))
-    return _domain(uv, boundary, interior, corners, loops, position, a, median_spacing, segments)
+    return _domain(uv, boundary, interior, corners, loops, position, a, median_spacing, segments, F if warp else None)
 
 
 def _with_strips(uv: np.ndarray, interior: np.ndarray, strips: Strips, sizing: _Sizing, lam: float) -> np.ndarray:
@@ -578,4 +592,4 @@ def insert(domain: CoarseDomain, new_vertices: np.ndarray, *, min_separation: fl
     nb = sum(b.size for b in domain.boundary)
     interior = np.union1d(domain.vertices[nb:], inner)
     return _domain(domain.scan_uv, boundary, interior, domain.corners, domain.loops, position, domain.analysis,
-                   domain.stats.spacing, domain.creases)
+                   domain.stats.spacing, domain.creases, domain.scan_faces)

@@ -102,7 +102,7 @@ def scan_location(dom: CoarseDomain) -> tuple[np.ndarray, np.ndarray, np.ndarray
     """``face (n,)``, ``bary (n, 3)`` of every scan vertex in the coarse domain (see the module docstring)
     and ``unreached (n,)`` bool: outside the domain and farther than :data:`EXTRAPOLATION` from every
     boundary patch that could extend to it (on its chord instead, where its data do not belong)."""
-    uv = dom.scan_uv
+    uv = dom.warped_uv
     hit = dom.locate(uv)
     face, bary = hit.face.copy(), hit.bary.copy()
     unreached = np.zeros(uv.shape[0], bool)

@@ -164,6 +164,8 @@ class _Options:
     auto: bool
     #: the bend term's reference of the current domain family (:func:`~.fit.quadric_reference`, once)
     reference: Polynomial | None = None
+    #: the scan's parameters follow the coarse boundary chords (:mod:`.warp`); off with the caller's own uv
+    warp: bool = True
 
 
 def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corners, loss, weights) -> _Options:
@@ -270,10 +272,10 @@ def _first_domain(V: np.ndarray, F: np.ndarray, uv: np.ndarray, opt: _Options, r
     k = min(opt.budget, max(INITIAL_MIN, int(round(seed))))
     while k < opt.budget:
         try:
-            return coarse_domain(V, F, uv, n_vertices=k)
+            return coarse_domain(V, F, uv, n_vertices=k, warp=opt.warp)
         except InputError:
             k = min(opt.budget, 2 * k)
-    return coarse_domain(V, F, uv, n_vertices=opt.budget)  # raises when the budget is below the outline's need
+    return coarse_domain(V, F, uv, n_vertices=opt.budget, warp=opt.warp)  # raises when the budget is below the outline's need
 
 
 def approximate_surface(
@@ -333,6 +335,7 @@ def approximate_surface(
         report(name, dict(info, seconds=clock(name)))
 
     uv, faces, parameterization = _domain_uv(V, F, uv, param)
+    opt = dataclasses.replace(opt, warp=parameterization.method != "uv")
     stage("parameterize")
     dom = _first_domain(V, faces, uv, opt, max_rounds)
     opt = dataclasses.replace(opt, reference=quadric_reference(dom, V))
@@ -353,7 +356,7 @@ def _whole_budget(V: np.ndarray, F: np.ndarray, uv: np.ndarray, opt: _Options, s
                   stage: Callable) -> tuple[CoarseDomain, _Options, Round, list[dict], str]:
     """A noise-dominated scan (a budget alone): one domain of the whole budget, its own cross-validated
     smoothing (not the seed's spacing's) and one round; ``(domain, options, round, history, stop)``."""
-    dom = coarse_domain(V, F, uv, n_vertices=opt.budget)
+    dom = coarse_domain(V, F, uv, n_vertices=opt.budget, warp=opt.warp)
     opt = dataclasses.replace(opt, reference=quadric_reference(dom, V))
     stage("domain")
     if opt.auto:

@@ -317,7 +317,7 @@ def test_cross_validation_smooths_noise_and_keeps_detail():
     clean = truth_scan("bumps", 4000, sigma=0.0, seed=10)
     w = {}
     for name, s in (("noisy", noisy), ("clean", clean)):
-        dom = coarse_domain(s.V, s.F, s.params, n_vertices=150)
+        dom = coarse_domain(s.V, s.F, s.params, n_vertices=150, warp=False)  # uv given: no outline warp
         w[name], scores = cross_validated_weight(dom, s.V, corners="fit")
         assert set(scores) == set(DATA_WEIGHTS) and scores[w[name]] == min(scores.values())
     assert w["noisy"] < w["clean"]  # more smoothing for noise
@@ -434,9 +434,9 @@ def test_points_no_boundary_patch_reaches_get_no_data_weight(f, loss):
     """A scan point outside the coarse domain, beyond :data:`EXTRAPOLATION` of every boundary patch, sits on
     its chord, where its data do not belong (a polynomial is not reproduced there): it is unreached, left
     out of the data term (and counted), so a plane and a quadric are still reproduced exactly with
-    ``corners="fit"``."""
+    ``corners="fit"``. (With the scan's own uv, as given uv are: no outline warp.)"""
     V, F, st = height_field(f)
-    dom = coarse_domain(V, F, st, n_vertices=30)
+    dom = coarse_domain(V, F, st, n_vertices=30, warp=False)
     uv = dom.scan_uv.copy()
     lo = uv[:, 1].min()
     side = np.setdiff1d(np.flatnonzero(np.abs(uv[:, 1] - lo) < 1e-12), dom.vertices)[::4][:6]

@@ -1,0 +1,97 @@
+"""The outline warp: the scan's parameters put its outline on the coarse domain's boundary chords."""
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from trispline.fit.approx import approximate_surface, coarse_domain
+from trispline.fit.approx.warp import chord_targets
+from trispline.fit.datasets.truth import grid_with_hole
+from trispline.param import parameterize
+from trispline.spline.testing import domains
+from trispline.spline.topology import signed_areas
+
+
+def lifted(uv: np.ndarray) -> np.ndarray:
+    """A smooth bumpy surface over the planar points ``uv (n, 2)``."""
+    z = 0.2 * np.sin(3 * uv[:, 0]) * np.cos(2 * uv[:, 1]) + 0.1 * uv[:, 0] * uv[:, 1]
+    return np.column_stack([uv, z])
+
+
+@st.composite
+def scans(draw):
+    """``(V, F, uv)``: a random outline (holes, a concave L, a grid with a hole) lifted, parameterized by LSCM
+    (its outline is jagged against any coarse chord)."""
+    kind = draw(st.sampled_from(["holes", "lshape", "grid_hole"]))
+    seed = draw(st.integers(0, 10_000))
+    if kind == "holes":
+        st_, F = domains.random_delaunay(draw(st.integers(600, 1500)), holes=draw(st.integers(1, 2)), seed=seed)
+    elif kind == "lshape":
+        st_, F = domains.l_shape(draw(st.integers(300, 900)), seed=seed)
+    else:
+        st_, F = grid_with_hole(draw(st.integers(600, 1500)), seed=seed)
+    V = lifted(st_)
+    p = parameterize(V, F, method="lscm")
+    return V, p.faces, p.uv, draw(st.sampled_from([0.04, 0.1]))
+
+
+def boundary_distance(dom, points: np.ndarray) -> np.ndarray:
+    """``(m,)`` uv distance of ``points (m, 2)`` to the coarse domain's boundary."""
+    return np.linalg.norm(dom.locator.project(points)[2] - points, axis=1)
+
+
+@settings(max_examples=8)
+@given(scans())
+def test_the_warp_puts_the_outline_on_the_chords_and_folds_nothing(scan):
+    V, F, uv, frac = scan
+    dom = coarse_domain(V, F, uv, n_vertices=max(20, int(frac * V.shape[0])))
+    w = dom.warped_uv
+    extent = float(np.ptp(uv, axis=0).max())
+    np.testing.assert_array_equal(w[dom.vertices], dom.uv)  # coarse vertices keep their parameters
+    outline = np.concatenate(dom.loops)
+    ears = np.isin(F, outline).all(1)
+    assert (signed_areas(w, F)[~ears] > 0).all()  # no scan triangle folds (an ear on its chord is flat)
+    # the outline on its chords (where no fold held the warp back, which these smooth maps never need)
+    assert boundary_distance(dom, w[outline]).max() <= 1e-9 * extent
+    ids, target = chord_targets(dom)
+    np.testing.assert_allclose(w[ids], target, atol=1e-9 * extent)
+    # every scan point in the domain: none clamped, none left out of the fit
+    assert boundary_distance(dom, w[dom.locate(w).clamped]).max(initial=0.0) <= 1e-9 * extent
+    # the warp stays in the boundary patches' band: a point in a face with no boundary vertex keeps its uv
+    nb = sum(b.size for b in dom.boundary)
+    hit = dom.locate(uv)
+    deep = ~hit.clamped & (dom.faces[hit.face] >= nb).all(1)
+    np.testing.assert_array_equal(w[deep], uv[deep])
+
+
+def test_outline_points_keep_their_order_along_the_chords():
+    """Each loop's warped outline walks its coarse polygon once, never back: its length is the polygon's."""
+    st_, F = domains.l_shape(600, seed=3)
+    V = lifted(st_)
+    p = parameterize(V, F, method="lscm")
+    dom = coarse_domain(V, p.faces, p.uv, n_vertices=25)
+    closed = lambda x: np.linalg.norm(np.diff(np.vstack([x, x[:1]]), axis=0), axis=1).sum()  # noqa: E731
+    for kept, loop in zip(dom.boundary, dom.loops):
+        assert kept.size < loop.size  # some outline vertices were moved onto chords
+        np.testing.assert_allclose(closed(dom.warped_uv[loop]), closed(dom.scan_uv[kept]), rtol=1e-12)
+
+
+def test_the_approximation_leaves_no_point_outside_and_fits_closer():
+    """On an L-shaped scan parameterized by LSCM, the warp leaves no scan point unreached and brings the
+    scan closer to the surface (data -> model) than the scan's own uv do."""
+    import trispline.fit.approx.warp as warp
+
+    st_, F = domains.l_shape(1500, seed=5)
+    V = lifted(st_)
+    rms = {}
+    for on in (True, False):
+        warp.OUTLINE_WARP = on
+        try:
+            res = approximate_surface(V, F, n_vertices=40, loss="l2", max_rounds=1)
+        finally:
+            warp.OUTLINE_WARP = True
+        rms[on] = res.stats["deviation"]["rms"]
+        if on:
+            assert res.stats["unreached"] == 0
+    assert rms[True] < rms[False]
