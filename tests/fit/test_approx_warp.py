@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from trispline.fit.approx import approximate_surface, coarse_domain
-from trispline.fit.approx.warp import chord_targets
+from trispline.fit.approx.warp import outline_targets
 from trispline.fit.datasets.truth import grid_with_hole
 from trispline.param import parameterize
 from trispline.spline.testing import domains
@@ -41,6 +41,23 @@ def boundary_distance(dom, points: np.ndarray) -> np.ndarray:
     return np.linalg.norm(dom.locator.project(points)[2] - points, axis=1)
 
 
+def staircase_free(dom) -> np.ndarray:
+    """Scan ids of the outline runs that turn back and forth by at most 90 degrees in all (what the warp calls
+    smooth), written out here from the outline's headings."""
+    out = []
+    for kept, loop in zip(dom.boundary, dom.loops):
+        p = dom.scan_uv[loop]
+        d = np.roll(p, -1, axis=0) - p
+        heading = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
+        start = np.flatnonzero(np.isin(loop, kept))
+        for i, j in zip(start, np.r_[start[1:], start[0] + loop.size]):
+            h = heading[np.arange(i - 1, j) % loop.size]  # the edges into and out of the run's inner points
+            turns = np.angle(np.exp(1j * np.diff(h)))
+            if np.abs(turns).sum() - abs(turns.sum()) <= np.radians(90.0):
+                out.append(loop[np.arange(i, j + 1) % loop.size])
+    return np.unique(np.concatenate(out)) if out else np.empty(0, np.int64)
+
+
 @settings(max_examples=8)
 @given(scans())
 def test_the_warp_puts_the_outline_on_the_chords_and_folds_nothing(scan):
@@ -52,12 +69,15 @@ def test_the_warp_puts_the_outline_on_the_chords_and_folds_nothing(scan):
     outline = np.concatenate(dom.loops)
     ears = np.isin(F, outline).all(1)
     assert (signed_areas(w, F)[~ears] > 0).all()  # no scan triangle folds (an ear on its chord is flat)
-    # the outline on its chords (where no fold held the warp back, which these smooth maps never need)
-    assert boundary_distance(dom, w[outline]).max() <= 1e-9 * extent
-    ids, target = chord_targets(dom)
+    # the outline where its runs send it (no fold held the warp back, which these maps never need) ...
+    ids, target = outline_targets(dom)
     np.testing.assert_allclose(w[ids], target, atol=1e-9 * extent)
-    # every scan point in the domain: none clamped, none left out of the fit
-    assert boundary_distance(dom, w[dom.locate(w).clamped]).max(initial=0.0) <= 1e-9 * extent
+    # ... a smooth run onto its chord, a jagged one (a staircase) off it by its teeth alone
+    on_chord = boundary_distance(dom, target) <= 1e-9 * extent
+    smooth_runs = staircase_free(dom)
+    assert on_chord[np.isin(ids, smooth_runs)].all()
+    if smooth_runs.size == ids.size:  # every scan point in the domain: none clamped, none left out of the fit
+        assert boundary_distance(dom, w[dom.locate(w).clamped]).max(initial=0.0) <= 1e-9 * extent
     # the warp stays in the boundary patches' band: a point in a face with no boundary vertex keeps its uv
     nb = sum(b.size for b in dom.boundary)
     hit = dom.locate(uv)
@@ -75,6 +95,24 @@ def test_outline_points_keep_their_order_along_the_chords():
     for kept, loop in zip(dom.boundary, dom.loops):
         assert kept.size < loop.size  # some outline vertices were moved onto chords
         np.testing.assert_allclose(closed(dom.warped_uv[loop]), closed(dom.scan_uv[kept]), rtol=1e-12)
+
+
+def test_a_staircase_outline_keeps_its_teeth_but_loses_its_bulge():
+    """A hole cut from a grid has a staircase outline: its runs lose their smooth bulge (the offsets left are
+    orthogonal to the cubic bump, so they sit on both sides of the chord) and are not flattened onto it."""
+    st_, F = grid_with_hole(3000, seed=2)
+    V = lifted(st_)
+    p = parameterize(V, F, method="lscm")
+    dom = coarse_domain(V, p.faces, p.uv, n_vertices=60)
+    ids, target = outline_targets(dom)
+    stairs = np.setdiff1d(ids, staircase_free(dom))
+    assert stairs.size > 20  # the hole's runs are jagged
+    w = dom.warped_uv[stairs]
+    extent = float(np.ptp(p.uv, axis=0).max())
+    off = boundary_distance(dom, w)
+    assert off.max() > 1e-4 * extent  # teeth kept off the chords
+    inside = ~dom.locate(w).clamped & (off > 1e-9 * extent)
+    assert 0.2 < inside.mean() < 0.8  # on both sides of them
 
 
 def test_the_approximation_leaves_no_point_outside_and_fits_closer():
