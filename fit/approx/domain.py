@@ -55,8 +55,9 @@ corner point can interpolate its data vertex. How the vertices are chosen:
    isotropic domain's patches round over their whole width (beetle at 2%, ``corners="data"``: the
    crease vertices' d>m RMS 8.0e-4 -> 5.4e-4 of the diagonal, all of them 2.30e-4 -> 2.04e-4).
 
-Scan vertices outside the coarse polygon (between a boundary chord and the scan's
-outline) are located by clamping them to the nearest boundary point
+The fit locates the scan at :attr:`CoarseDomain.warped_uv`: its uv with the outline moved onto the
+boundary chords (:mod:`.warp`). Scan vertices still outside the coarse polygon (between a boundary
+chord and the scan's outline) are located by clamping them to the nearest boundary point
 (:class:`~.locate.ClampedLocator`); ``Located.clamped`` says which.
 """
 from __future__ import annotations
@@ -174,9 +175,17 @@ class CoarseDomain:
         """``(n, 2)`` the scan's parameters in this domain: ``scan_uv`` with the outline on the boundary
         chords (:func:`~.warp.outline_warp`; ``scan_uv`` itself without ``scan_faces`` or with
         :data:`~.warp.OUTLINE_WARP` off). The coarse vertices keep their uv."""
-        from .warp import OUTLINE_WARP, outline_warp
+        from .warp import outline_warp
 
-        return outline_warp(self, self.scan_faces) if OUTLINE_WARP and self.scan_faces is not None else self.scan_uv
+        return outline_warp(self, self.scan_faces) if self.warped else self.scan_uv
+
+    @property
+    def warped(self) -> bool:
+        """Whether the scan's parameters follow the boundary chords (:attr:`warped_uv`): the scan's faces known
+        and :data:`~.warp.OUTLINE_WARP` on."""
+        from .warp import OUTLINE_WARP
+
+        return OUTLINE_WARP and self.scan_faces is not None
 
     @cached_property
     def triangulation(self) -> Triangulation:

@@ -17,6 +17,7 @@ from trispline.fit.approx import (  # noqa: E402
 from trispline.fit.approx.fit import (  # noqa: E402
     BEND_WEIGHT_RANGE, DATA_WEIGHTS, EXTRAPOLATION, OUTLINE_DATA_WEIGHT, bend_face_weights, corrected_parameters,
     cross_validated_weight, outline_faces, outline_factor, quadric_reference, scan_location,
+    WARPED_OUTLINE_DATA_WEIGHT,
 )
 from trispline.fit.approx.analysis import SPIKE_LEVELS  # noqa: E402
 from trispline.fit.approx.pipeline import loss_scale  # noqa: E402
@@ -391,6 +392,9 @@ def test_corrected_parameters_are_the_closest_points():
 def test_outline_patches_keep_their_smoothing():
     assert outline_factor(10.0) == 1.0 and outline_factor(OUTLINE_DATA_WEIGHT) == 1.0
     assert outline_factor(10 * OUTLINE_DATA_WEIGHT) == pytest.approx(10.0)
+    # a warped domain has the scan's outline under its outline patches: less of it
+    assert outline_factor(10 * WARPED_OUTLINE_DATA_WEIGHT, warped=True) == pytest.approx(10.0)
+    assert outline_factor(WARPED_OUTLINE_DATA_WEIGHT, warped=True) == 1.0 < outline_factor(WARPED_OUTLINE_DATA_WEIGHT)
     V, F, uv = height_field(QUADRIC, n=1200)
     dom = coarse_domain(V, F, uv, n_vertices=40)
     edge = outline_faces(dom)
