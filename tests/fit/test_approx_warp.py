@@ -133,3 +133,21 @@ def test_the_approximation_leaves_no_point_outside_and_fits_closer():
         if on:
             assert res.stats["unreached"] == 0
     assert rms[True] < rms[False]
+
+
+def test_a_plane_with_a_round_hole_is_still_reproduced():
+    """The warp bends the map but not the data: a planar scan's surface stays in its plane, and every scan
+    vertex off the outline lies on it (the outline's jagged teeth, in the plane, are as far off the surface's
+    smooth boundary curve as a chord leaves them: within the outline's own step)."""
+    st_, F = grid_with_hole(1500, seed=4)
+    V = np.column_stack([st_, 0.3 * st_[:, 0] - 0.2 * st_[:, 1] + 0.1])
+    res = approximate_surface(V, F, n_vertices=40, corners="fit", loss="l2", max_rounds=1)
+    assert res.domain.warped and res.stats["unreached"] == 0
+    diag = float(np.linalg.norm(np.ptp(V, axis=0)))
+    normal = np.array([0.3, -0.2, -1.0]) / np.linalg.norm([0.3, -0.2, -1.0])
+    assert np.abs((res.ctrl - V[0]) @ normal).max() <= 1e-12 * diag  # every control point in the plane
+    outline = np.zeros(V.shape[0], bool)
+    outline[np.concatenate(res.domain.loops)] = True
+    assert res.deviation.distance[~outline].max() <= 1e-9 * diag
+    step = np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1).max()
+    assert res.deviation.distance[outline].max() <= step
