@@ -59,6 +59,32 @@ def triangulations(draw, max_faces: int = 400):
     return kind, uv, f
 
 
+@st.composite
+def scan_outlines(draw, size: float = 1.0):
+    """``(kind, uv (n, 2), faces (m, 3), hole_centres (h, 2))``: a scan-sized planar domain whose outline a coarse
+    domain must keep: random points with 1-3 holes, a concave L, or a grid with a round hole (a staircase
+    outline); ``size`` scales the vertex counts."""
+    from trispline.fit.datasets.truth import HOLE_CENTRE, grid_with_hole
+
+    kind = draw(st.sampled_from(["holes", "lshape", "grid_hole"]))
+    seed = draw(st.integers(0, 10_000))
+    count = lambda lo, hi: draw(st.integers(int(lo * size), int(hi * size)))  # noqa: E731
+    if kind == "holes":
+        uv, f = domains.random_delaunay(count(800, 2500), holes=draw(st.integers(1, 3)), seed=seed)
+        return kind, uv, f, np.empty((0, 2))
+    if kind == "lshape":
+        uv, f = domains.l_shape(count(400, 1200), seed=seed)
+        return kind, uv, f, np.empty((0, 2))
+    uv, f = grid_with_hole(count(800, 3000), seed=seed)
+    return kind, uv, f, HOLE_CENTRE[None]
+
+
+def lifted(uv: np.ndarray, noise: float = 0.0, seed: int = 0) -> np.ndarray:
+    """``(n, 3)``: a smooth bumpy surface over the planar points ``uv (n, 2)``, with Gaussian noise along z."""
+    z = 0.2 * np.sin(3 * uv[:, 0]) * np.cos(2 * uv[:, 1]) + 0.1 * uv[:, 0] * uv[:, 1]
+    return np.column_stack([uv, z + np.random.default_rng(seed).normal(0.0, noise, z.shape)])
+
+
 #: One quick example of every kind, by name (seeded), for tests that sample names.
 SMALL_DOMAINS = {
     "lone": lambda s: domains.lone_triangle(),

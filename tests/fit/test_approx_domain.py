@@ -13,27 +13,14 @@ from trispline.spline import Locator, Triangulation, build_space
 from trispline.spline.errors import InputError
 from trispline.spline.testing import domains
 from trispline.spline.topology import signed_areas
-
-
-def lift(uv: np.ndarray, noise: float = 0.0, seed: int = 0) -> np.ndarray:
-    """A smooth bumpy surface over the planar points ``uv (n, 2)``, with Gaussian noise along z."""
-    z = 0.2 * np.sin(3 * uv[:, 0]) * np.cos(2 * uv[:, 1]) + 0.1 * uv[:, 0] * uv[:, 1]
-    return np.column_stack([uv, z + np.random.default_rng(seed).normal(0.0, noise, z.shape)])
+from triangulations import lifted as lift, scan_outlines
 
 
 @st.composite
 def scans(draw):
     """A planar domain with holes or a concave outline, lifted to a surface, in a random similarity."""
-    kind = draw(st.sampled_from(["holes", "lshape", "grid_hole"]))
+    kind, uv, F, hole_centres = draw(scan_outlines())
     seed = draw(st.integers(0, 10_000))
-    hole_centres = np.empty((0, 2))
-    if kind == "holes":
-        uv, F = domains.random_delaunay(draw(st.integers(800, 2500)), holes=draw(st.integers(1, 3)), seed=seed)
-    elif kind == "lshape":
-        uv, F = domains.l_shape(draw(st.integers(400, 1200)), seed=seed)
-    else:
-        uv, F = grid_with_hole(draw(st.integers(800, 3000)), seed=seed)
-        hole_centres = HOLE_CENTRE[None]
     ang = draw(st.floats(0, 2 * np.pi))
     R = np.array([[np.cos(ang), -np.sin(ang)], [np.sin(ang), np.cos(ang)]])
     scale = draw(st.sampled_from([1e-3, 1.0, 1e3]))

@@ -11,26 +11,14 @@ from trispline.fit.datasets.truth import grid_with_hole
 from trispline.param import parameterize
 from trispline.spline.testing import domains
 from trispline.spline.topology import signed_areas
-
-
-def lifted(uv: np.ndarray) -> np.ndarray:
-    """A smooth bumpy surface over the planar points ``uv (n, 2)``."""
-    z = 0.2 * np.sin(3 * uv[:, 0]) * np.cos(2 * uv[:, 1]) + 0.1 * uv[:, 0] * uv[:, 1]
-    return np.column_stack([uv, z])
+from triangulations import lifted, scan_outlines
 
 
 @st.composite
 def scans(draw):
-    """``(V, F, uv)``: a random outline (holes, a concave L, a grid with a hole) lifted, parameterized by LSCM
-    (its outline is jagged against any coarse chord)."""
-    kind = draw(st.sampled_from(["holes", "lshape", "grid_hole"]))
-    seed = draw(st.integers(0, 10_000))
-    if kind == "holes":
-        st_, F = domains.random_delaunay(draw(st.integers(600, 1500)), holes=draw(st.integers(1, 2)), seed=seed)
-    elif kind == "lshape":
-        st_, F = domains.l_shape(draw(st.integers(300, 900)), seed=seed)
-    else:
-        st_, F = grid_with_hole(draw(st.integers(600, 1500)), seed=seed)
+    """``(V, F, uv, fraction)``: a scan outline (:func:`~triangulations.scan_outlines`) lifted and parameterized
+    by LSCM (its outline is jagged against any coarse chord), and a vertex fraction."""
+    _, st_, F, _ = draw(scan_outlines(size=0.6))
     V = lifted(st_)
     p = parameterize(V, F, method="lscm")
     return V, p.faces, p.uv, draw(st.sampled_from([0.04, 0.1]))
