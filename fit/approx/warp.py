@@ -107,9 +107,13 @@ def _run_bumps(p: np.ndarray, a: np.ndarray, b: np.ndarray, s: np.ndarray, run: 
     o = np.einsum("md,md->m", p - a, n)
     phi = np.column_stack([s * (1 - s), s * (1 - s) * (2 * s - 1)])
     G = np.stack([np.bincount(run, phi[:, i] * phi[:, j], runs) for i in range(2) for j in range(2)], 1)
-    G = G.reshape(runs, 2, 2) + 1e-12 * np.eye(2) * (G[:, 0] + G[:, 3] + 1e-300)[:, None, None]
-    r = np.stack([np.bincount(run, phi[:, i] * o, runs) for i in range(2)], 1)
-    c = np.linalg.solve(G, r[..., None])[..., 0]
+    trace = G[:, 0] + G[:, 3]
+    fit = trace > 0  # a run with inner points (its kept ends have phi = 0)
+    c = np.zeros((runs, 2))
+    if fit.any():
+        Gf = G[fit].reshape(-1, 2, 2) + 1e-12 * np.eye(2) * trace[fit][:, None, None]  # rank one with one point
+        r = np.stack([np.bincount(run, phi[:, i] * o, runs) for i in range(2)], 1)[fit]
+        c[fit] = np.linalg.solve(Gf, r[..., None])[..., 0]
     return np.einsum("mk,mk->m", phi, c[run])[:, None] * n
 
 

@@ -139,3 +139,16 @@ def test_a_plane_with_a_round_hole_is_still_reproduced():
     assert res.deviation.distance[~outline].max() <= 1e-9 * diag
     step = np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1).max()
     assert res.deviation.distance[outline].max() <= step
+
+
+def test_an_outline_kept_whole_is_not_moved():
+    """Every boundary vertex kept: no run has inner points, no target moves (and nothing divides by zero)."""
+    import dataclasses
+
+    st_, F = domains.l_shape(60, seed=1)
+    V = lifted(st_)
+    p = parameterize(V, F, method="lscm")
+    dom = coarse_domain(V, p.faces, p.uv, n_vertices=20)
+    whole = dataclasses.replace(dom, boundary=dom.loops)
+    ids, target = outline_targets(whole)
+    np.testing.assert_array_equal(target, dom.scan_uv[ids])
