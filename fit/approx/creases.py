@@ -24,6 +24,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
+from trispline.spline.topology import undirected_edges
+
 from .analysis import ScanAnalysis
 
 __all__ = ["Strips", "crease_edges", "crease_chains", "crease_strips", "CREASE_ANGLE", "STRIP_OFFSET",
@@ -64,14 +66,13 @@ def crease_edges(V: np.ndarray, F: np.ndarray, angle: float = CREASE_ANGLE) -> n
     ``angle`` degrees; ``V (n, 3)``, ``F (m, 3)``."""
     fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
     fn /= np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-300)
-    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    face = np.tile(np.arange(F.shape[0]), 3)
-    key = e[:, 0] * V.shape[0] + e[:, 1]
-    order = np.argsort(key, kind="stable")
-    pair = np.flatnonzero(key[order][1:] == key[order][:-1])
-    f1, f2 = face[order[pair]], face[order[pair + 1]]
+    _, edges, he_edge, count = undirected_edges(F, V.shape[0])
+    order = np.argsort(he_edge, kind="stable")  # each edge's half-edges together; row 3 f + k is face f's
+    first = np.searchsorted(he_edge[order], np.arange(edges.shape[0]))
+    inner = np.flatnonzero(count == 2)
+    f1, f2 = order[first[inner]] // 3, order[first[inner] + 1] // 3
     cos = np.einsum("ed,ed->e", fn[f1], fn[f2])
-    return e[order[pair]][cos < np.cos(np.radians(angle))]
+    return edges[inner][cos < np.cos(np.radians(angle))]
 
 
 def crease_chains(edges: np.ndarray, n: int) -> list[np.ndarray]:
