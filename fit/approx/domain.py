@@ -82,7 +82,8 @@ from .cdt import constrained, hole_seeds, loop_segments, quality_mesh
 from .locate import ClampedLocator, Located
 from .quality import REPAIR_ROUNDS, better_vertices, face_angles
 
-__all__ = ["CoarseDomain", "DomainStats", "coarse_domain", "insert", "separation", "ADAPT", "DEFAULT_FRACTION",
+__all__ = ["CoarseDomain", "DomainStats", "coarse_domain", "coarse_index", "insert", "separation", "ADAPT",
+           "DEFAULT_FRACTION",
            "MIN_SEPARATION"]
 
 #: Default vertex budget as a fraction of the scan's vertices.
@@ -369,8 +370,7 @@ def _triangulate(uv: np.ndarray, boundary: list[np.ndarray], interior: np.ndarra
         ids = np.concatenate([*boundary, interior])
         P = uv[ids]
         outline = loop_segments([b.size for b in boundary])
-        local = np.full(uv.shape[0], -1, np.int64)
-        local[ids] = np.arange(ids.size)
+        local = coarse_index(ids, uv.shape[0])
         creases = creases[(local[creases] >= 0).all(1)]
         segments = np.concatenate([outline, local[creases]])
         faces, extra = constrained(P, segments, hole_seeds([uv[b] for b in boundary]))
@@ -396,9 +396,7 @@ def _domain(scan_uv: np.ndarray, boundary: list[np.ndarray], interior: np.ndarra
     boundary, ids, faces, creases = _triangulate(scan_uv, boundary, interior, loops, position, creases)
     uv = np.ascontiguousarray(scan_uv[ids])
     data = np.where(analysis.spike[:, None], analysis.smooth, analysis.points)  # spikes judge nothing
-    local = np.full(scan_uv.shape[0], -1, np.int64)
-    local[ids] = np.arange(ids.size)
-    faces = flip_to_data(uv, faces, data[ids], scan_uv, data, fixed=local[creases])
+    faces = flip_to_data(uv, faces, data[ids], scan_uv, data, fixed=coarse_index(ids, scan_uv.shape[0])[creases])
     try:
         tri = Triangulation(uv, faces)
     except TriangulationError as exc:
@@ -420,6 +418,13 @@ def _domain(scan_uv: np.ndarray, boundary: list[np.ndarray], interior: np.ndarra
                        scan_faces=scan_faces)
     dom.__dict__["triangulation"] = tri  # the cached property, already validated
     return dom
+
+
+def coarse_index(ids: np.ndarray, n: int) -> np.ndarray:
+    """``(n,)`` each scan vertex's position in ``ids (k,)`` (its coarse vertex id), -1 for the others."""
+    local = np.full(n, -1, np.int64)
+    local[ids] = np.arange(ids.size)
+    return local
 
 
 def _loop_position(loops: tuple[np.ndarray, ...], n: int) -> np.ndarray:

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .deviation import Deviation, distance_to_mesh, summary, surface_deviation
-from .domain import MIN_SEPARATION, CoarseDomain, separation
+from .domain import MIN_SEPARATION, CoarseDomain, coarse_index, separation
 from .fit import CoarseFit
 
 __all__ = ["Round", "measure", "outline_gaps", "surface_gaps", "pick_vertices", "REJECT_SIGMAS", "GROWTH",
@@ -168,8 +168,7 @@ def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray
     worst = np.zeros(dom.stats.n_faces) if state.face_gap is None else np.where(state.face_gap > tolerance,
                                                                                   state.face_gap, 0.0)
     np.maximum.at(worst, face[over], d[over])
-    local = np.full(d.size, -1, np.int64)
-    local[dom.vertices] = np.arange(dom.vertices.size)
+    local = coarse_index(dom.vertices, d.size)
     star_face, star_corner = np.nonzero(np.isin(dom.faces, local[dom.vertices[over[dom.vertices]]]))
     np.maximum.at(worst, star_face, d[dom.vertices[dom.faces[star_face, star_corner]]])  # a coarse vertex: its star
     limit = int(min(room, np.ceil((GROWTH - 1.0) * dom.stats.n_vertices)))
