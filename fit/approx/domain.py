@@ -178,7 +178,7 @@ class CoarseDomain:
         :data:`~.warp.OUTLINE_WARP` off). The coarse vertices keep their uv."""
         from .warp import outline_warp
 
-        return outline_warp(self, self.scan_faces) if self.warped else self.scan_uv
+        return outline_warp(self) if self.warped else self.scan_uv
 
     @property
     def warped(self) -> bool:

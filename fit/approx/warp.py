@@ -1,6 +1,6 @@
 """The scan's uv warped so that its outline follows the coarse domain's boundary chords.
 
-    uv = outline_warp(dom, F)                 # (n, 2): the scan's parameters in the coarse domain
+    uv = outline_warp(dom)                    # (n, 2): the scan's parameters in the coarse domain
     ids, target = outline_targets(dom)        # where each scan boundary vertex goes
 
 A coarse domain's boundary is a polygon of chords between kept scan boundary vertices. Where
@@ -119,17 +119,16 @@ def _run_bumps(p: np.ndarray, a: np.ndarray, b: np.ndarray, s: np.ndarray, run: 
 
 def _band(dom: "CoarseDomain") -> np.ndarray:
     """``(n,)`` bool: scan vertices outside the domain or in a face with a boundary vertex."""
-    hit = dom.locate(dom.scan_uv)
+    hit = dom.locate_scan()
     on = np.zeros(dom.uv.shape[0], bool)
-    nb = sum(b.size for b in dom.boundary)
-    on[:nb] = True  # CoarseDomain.vertices: the boundary loops' first
+    on[: dom.stats.n_boundary] = True  # CoarseDomain.vertices: the boundary loops' first
     return hit.clamped | on[dom.faces[hit.face]].any(1)
 
 
-def outline_warp(dom: "CoarseDomain", F: np.ndarray) -> np.ndarray:
-    """``(n, 2)`` the scan's uv with its outline on the coarse boundary chords (see the module docstring);
-    ``F (m, 3)`` the scan's faces, counter-clockwise in ``dom.scan_uv``."""
-    uv = dom.scan_uv
+def outline_warp(dom: "CoarseDomain") -> np.ndarray:
+    """``(n, 2)`` the scan's uv with its outline on the coarse boundary chords (see the module docstring),
+    over the scan's faces ``dom.scan_faces`` (counter-clockwise in ``dom.scan_uv``)."""
+    uv, F = dom.scan_uv, dom.scan_faces
     ids, target = outline_targets(dom)
     shift = np.zeros_like(uv)
     shift[ids] = target - uv[ids]

@@ -103,7 +103,7 @@ def test_a_staircase_outline_keeps_its_teeth_but_loses_its_bulge():
     assert 0.2 < inside.mean() < 0.8  # on both sides of them
 
 
-def test_the_approximation_leaves_no_point_outside_and_fits_closer():
+def test_the_approximation_leaves_no_point_outside_and_fits_closer(monkeypatch):
     """On an L-shaped scan parameterized by LSCM, the warp leaves no scan point unreached and brings the
     scan closer to the surface (data -> model) than the scan's own uv do."""
     import trispline.fit.approx.warp as warp
@@ -112,11 +112,8 @@ def test_the_approximation_leaves_no_point_outside_and_fits_closer():
     V = lifted(st_)
     rms = {}
     for on in (True, False):
-        warp.OUTLINE_WARP = on
-        try:
-            res = approximate_surface(V, F, n_vertices=40, loss="l2", max_rounds=1)
-        finally:
-            warp.OUTLINE_WARP = True
+        monkeypatch.setattr(warp, "OUTLINE_WARP", on)
+        res = approximate_surface(V, F, n_vertices=40, loss="l2", max_rounds=1)
         rms[on] = res.stats["deviation"]["rms"]
         if on:
             assert res.stats["unreached"] == 0
