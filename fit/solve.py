@@ -163,6 +163,9 @@ class SparseCholesky:
         memory the system has available now (:func:`available_memory`); None: no check
     report : progress (:mod:`trispline.fit.progress`): PARDISO's analysis done
     defer : stop after the analysis and the memory check; :meth:`factorize` finishes
+    ordering : ``(n,)`` elimination order (new position -> row) for PARDISO instead of its own
+        METIS ordering (:func:`~trispline.fit.ordering.patch_ordering`); the other backends order
+        the matrix themselves
 
     Notes
     -----
@@ -177,7 +180,8 @@ class SparseCholesky:
     """
 
     def __init__(self, H: sp.spmatrix, backend: str | None = None, *, upper: bool = False,
-                 max_bytes: int | str | None = None, report: Report | None = None, defer: bool = False) -> None:
+                 max_bytes: int | str | None = None, report: Report | None = None, defer: bool = False,
+                 ordering: np.ndarray | None = None) -> None:
         H = sp.csr_matrix(H, dtype=np.float64)
         if H.shape[0] != H.shape[1]:
             raise ValueError(f"H must be square, got {H.shape}")
@@ -192,7 +196,7 @@ class SparseCholesky:
         #: Estimated bytes of the numerical factorisation (PARDISO: its own analysis).
         self.estimate = estimate_factor_bytes(self.n, U.nnz)
         if self.backend == "pardiso":
-            self._analyse_pardiso(U)
+            self._analyse_pardiso(U, ordering)
             (report or silent)(0.5)  # the analysis takes about half of the time
         check_memory(self.estimate, max_bytes)
         self._pending: sp.csr_matrix | None = U
@@ -260,8 +264,9 @@ class SparseCholesky:
         self._ia = np.ascontiguousarray(U.indptr, dtype=np.int32)
         self._ja = np.ascontiguousarray(U.indices, dtype=np.int32)
 
-    def _analyse_pardiso(self, U: sp.csr_matrix) -> None:
-        """PARDISO phase 11 on the upper triangle ``U``; sets :attr:`estimate` from its report."""
+    def _analyse_pardiso(self, U: sp.csr_matrix, ordering: np.ndarray | None = None) -> None:
+        """PARDISO phase 11 on the upper triangle ``U`` (in the elimination ``ordering``, or METIS's);
+        sets :attr:`estimate` from its report."""
         point_pypardiso_at_mkl()  # before the import: importing pypardiso makes a solver
         import pypardiso
 
@@ -276,6 +281,11 @@ class SparseCholesky:
                                   solver.iparm.ctypes.data_as(ctypes.c_void_p))
         solver.iparm[7] = 0
         solver.iparm[34] = 1  # zero-based indices: the matrix's own (no one-based copies, 44 MB at 100k faces)
+        if ordering is not None:
+            if ordering.shape != (self.n,):
+                raise ValueError(f"ordering must have shape ({self.n},), got {ordering.shape}")
+            solver.perm = np.ascontiguousarray(ordering, dtype=np.int32)  # PARDISO reads new position -> row
+            solver.iparm[4] = 1  # the caller's ordering
         start = time.perf_counter()
         self._pardiso(11)
         #: Wall seconds of PARDISO's analysis (0 for the other backends).
@@ -359,17 +369,21 @@ class PatternAnalysis:
         self._error: BaseException | None = None
         self.wait_seconds = 0.0
 
-    def start(self, pattern: sp.spmatrix | Callable[[], sp.spmatrix]) -> None:
+    def start(self, pattern: sp.spmatrix | Callable[[], sp.spmatrix],
+              ordering: Callable[[], np.ndarray | None] | None = None) -> None:
         """Start analysing the upper triangle ``pattern (k, k)`` (diagonal included; values unused), or the
         one a callable ``pattern()`` returns: then it is made in the background thread too (the fit's
         :func:`~trispline.fit.energy.normal.upper_pattern`, 1-2 CPU s at 100k faces on one core, which
-        the main thread had run alone before the terms' setup could start)."""
+        the main thread had run alone before the terms' setup could start). ``ordering()``: the elimination
+        order (:func:`~trispline.fit.ordering.patch_ordering`, made in the background thread after the
+        pattern), or None for PARDISO's own."""
         def analyse() -> None:
             try:
                 # the factor's float64 copy made here, so that a caller's (float32 counts: 41 MB at 100k
                 # faces) is not held beside it for the whole analysis
                 upper = sp.csr_matrix(pattern() if callable(pattern) else pattern, dtype=np.float64)
-                self._factor = SparseCholesky(upper, upper=True, defer=True)
+                order = None if ordering is None else ordering()
+                self._factor = SparseCholesky(upper, upper=True, defer=True, ordering=order)
             except BaseException as exc:  # noqa: BLE001 - re-raised by factor()
                 self._error = exc
 

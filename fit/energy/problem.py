@@ -23,6 +23,7 @@ from trispline.spline.util.memory import index_dtype
 from ..weights import FitWeights
 from .context import frame_ids, term_context
 from .data import DataPoints
+from ..ordering import patch_ordering
 from ..progress import Report, span
 from ..solve import symmetric_from_upper
 from .normal import normal_equations, patch_unknowns, upper_pattern
@@ -70,15 +71,17 @@ class Problem:
 
 def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
                   data_points: DataPoints | None = None, report: Report | None = None,
-                  on_pattern: Callable[[Callable[[], sp.csr_array]], None] | None = None,
+                  on_pattern: Callable[[Callable[[], sp.csr_array], Callable[[], np.ndarray | None]], None]
+                  | None = None,
                   curved_outline: bool = False) -> Problem:
     """Targets, residual arrays and normal equations for data vertices ``V (nv, 3)``.
 
     ``report``: progress (:mod:`trispline.fit.progress`): the local fits and targets take
     about 70% of the time, the normal equations most of the rest. ``on_pattern``: called
     before the terms are set up with a callable that makes the pattern of :attr:`Problem.H_upper`
-    (:func:`~.normal.upper_pattern`; the factorisation's analysis makes it and starts on it in its
-    background thread: :class:`~trispline.fit.solve.PatternAnalysis`).
+    (:func:`~.normal.upper_pattern`) and one that makes its elimination order
+    (:func:`~trispline.fit.ordering.patch_ordering`); the factorisation's analysis makes both and starts
+    on them in its background thread (:class:`~trispline.fit.solve.PatternAnalysis`).
     ``curved_outline``: as in :func:`~.context.term_context`.
     """
     is_fixed = np.zeros(space.n_free, bool)
@@ -97,7 +100,7 @@ def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
     A = M_r[np.asarray(space.point_index).ravel()]  # (21 F, k) patch points per unknown
     incidence = patch_unknowns(A)  # the pattern's and the assembly's (0.1-0.2 s at 100k faces)
     if on_pattern is not None:  # made where it is used: PatternAnalysis makes it in its own thread
-        on_pattern(partial(upper_pattern, A, incidence))
+        on_pattern(partial(upper_pattern, A, incidence), partial(patch_ordering, incidence))
     ctx = term_context(space, V, weights, data_points=data_points, report=span(report, 0.0, 0.7),
                        curved_outline=curved_outline)
     terms = setup_terms(ctx)

@@ -131,11 +131,11 @@ def test_local_diagonals_through_flat_views_equal_the_plain_indexing(problem):
 
 def test_pattern_from_the_patches_equals_the_assembled_one(problem):
     """``upper_pattern`` (known before any term is set up) is the pattern ``setup_problem`` assembles,
-    and ``setup_problem`` hands a maker of it to ``on_pattern`` first."""
+    and ``setup_problem`` hands a maker of it (and of its elimination order) to ``on_pattern`` first."""
     V, space, w = problem
     seen = []
-    prob = en.setup_problem(V, space, w, on_pattern=seen.append)
-    (make,) = seen
+    prob = en.setup_problem(V, space, w, on_pattern=lambda *makers: seen.append(makers))
+    ((make, _),) = seen
     P = make()
     U = sp.csr_array(prob.H_upper)
     assert P.shape == U.shape and np.array_equal(P.indptr, U.indptr) and np.array_equal(P.indices, U.indices)
@@ -169,11 +169,16 @@ def test_factor_analysed_on_the_pattern_equals_a_plain_one(backend, monkeypatch)
     monkeypatch.setenv("TRISPLINE_SOLVER", backend)
     V, F = _scan(6000)
     space = build_space(Triangulation(V[:, :2], F))
-    analysis = solve.PatternAnalysis()
-    prob = en.setup_problem(V, space, FitWeights(), on_pattern=analysis.start)
+    analysis, orders = solve.PatternAnalysis(), []
+
+    def start(pattern, ordering):
+        orders.append(ordering())
+        analysis.start(pattern, lambda: orders[0])
+
+    prob = en.setup_problem(V, space, FitWeights(), on_pattern=start)
     factor = analysis.factor(prob.H_upper, max_bytes="available")
     b = np.random.default_rng(1).normal(size=(prob.rhs.shape[0], 3))
-    plain = SparseCholesky(prob.H_upper, upper=True)
+    plain = SparseCholesky(prob.H_upper, upper=True, ordering=orders[0])
     np.testing.assert_array_equal(factor.solve(b), plain.solve(b))
     other = sp.csr_array(prob.H_upper[:-1, :-1])
     deferred = SparseCholesky(other, upper=True, defer=True)
@@ -182,7 +187,7 @@ def test_factor_analysed_on_the_pattern_equals_a_plain_one(backend, monkeypatch)
     fresh = solve.PatternAnalysis()
     fresh.start(other)
     refit = fresh.factor(prob.H_upper)  # not the analysed pattern: a plain factor of the values
-    np.testing.assert_array_equal(refit.solve(b), plain.solve(b))
+    np.testing.assert_array_equal(refit.solve(b), SparseCholesky(prob.H_upper, upper=True).solve(b))
 
 
 # ---------------------------------------------------------------- local fits

@@ -1,0 +1,93 @@
+"""A fill-reducing ordering of the normal matrix from its patches (nested dissection of the patch graph).
+
+The normal matrix ``H`` is a finite-element matrix: every patch couples all of its unknowns
+(:func:`~trispline.fit.energy.normal.upper_pattern`). PARDISO orders ``H`` by running METIS's
+nested dissection on its graph (550k unknowns and 20M entries at 100k faces): 4 s of wall and
+8 CPU s, three times its numerical factorisation. The same dissection done on the patches is
+cheaper by the size of the graph and loses little fill:
+
+1. the patch graph (two patches adjacent when they share unknowns; each unknown a hyperedge whose
+   cut costs about the same whatever the number of its patches) is cut into ``2**depth`` parts of
+   at most :data:`LEAF_PATCHES` patches by METIS's recursive bisection
+   (``pymetis.part_graph``), whose part numbers are the bisection tree: parts ``p`` and ``q`` were
+   split at the level of the highest bit in which they differ;
+2. an unknown whose patches all lie in one part is eliminated with that leaf; an unknown whose
+   patches span parts ``lo..hi`` belongs to the separator of the tree node that split them, and
+   is eliminated after both of that node's halves (post-order of the tree).
+
+At 100k faces: 1.7 CPU s for the ordering and 1.8 for PARDISO's symbolic phase on it, against
+8.0 CPU s for PARDISO's own analysis; the factor is as large (102.0M entries, 891 MB, 69 GFlop
+against 102.9M, 898 MB, 72 GFlop) and as fast to compute (benchmarks/README.md, issue 19).
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["EDGE_SCALE", "LEAF_PATCHES", "ORDERING_MIN_UNKNOWNS", "dissection_order", "patch_ordering"]
+
+#: Patches per part of the dissection (at most; parts are a power of two): at 100k faces 6 (32k
+#: parts) gave a factor of 891 MB, 8-12 (16k parts) 902 MB, 3 (64k parts) 887 MB for 10% more time.
+LEAF_PATCHES = 6
+#: Edge weight of a pair of patches per unknown they share with no other patch (see :func:`_parts`):
+#: divisible by 1-6, 8, 9, 10 and 12, the ``s - 1`` of the unknowns of a mesh's patches.
+EDGE_SCALE = 360.0
+#: Fewer unknowns than this: PARDISO's own ordering (a few ms either way).
+ORDERING_MIN_UNKNOWNS = 20_000
+
+
+def patch_ordering(incidence: sp.csr_array, leaf: int = LEAF_PATCHES,
+                   min_unknowns: int = ORDERING_MIN_UNKNOWNS) -> np.ndarray | None:
+    """``(k,)`` elimination order (new position -> unknown) of the normal matrix whose patches touch
+    the unknowns in ``incidence (n_patches, k)`` (:func:`~trispline.fit.energy.normal.patch_unknowns`);
+    None (the solver orders it itself) below ``min_unknowns`` unknowns or without ``pymetis``."""
+    n, k = incidence.shape
+    if k < min_unknowns or n < 4 * leaf:
+        return None
+    try:
+        import pymetis
+    except ImportError:  # an optional speed-up: PARDISO's own METIS orders the matrix then
+        return None
+    depth = max(1, int(np.ceil(np.log2(n / leaf))))
+    part = _parts(pymetis, incidence, 1 << depth)
+    return dissection_order(incidence, part)
+
+
+def _parts(pymetis, incidence: sp.csr_array, n_parts: int) -> np.ndarray:
+    """``(n_patches,)`` part of every patch: METIS's recursive bisection of the patch graph.
+
+    An unknown shared by ``s`` patches is a hyperedge; its ``s (s - 1) / 2`` pairs each weigh
+    ``1 / (s - 1)`` (times :data:`EDGE_SCALE`, rounded), so that cutting it costs about the same
+    whatever ``s``: the cut then counts separator unknowns (at 100k faces 891 MB of factor against
+    941 with the pairs weighted by their shared unknowns and 1,193 unweighted; PARDISO's own 898)."""
+    B = sp.csr_array(incidence, dtype=np.float64)
+    B.data[:] = 1
+    share = np.asarray(B.sum(axis=0)).ravel()
+    B = B * np.where(share > 1, EDGE_SCALE / np.maximum(share - 1, 1), 0.0)
+    G = sp.csr_array(B @ (B.T > 0).astype(np.float64))
+    G.setdiag(0)
+    G.eliminate_zeros()
+    weights = np.maximum(np.rint(G.data), 1).astype(np.int32)
+    adjacency = pymetis.CSRAdjacency(G.indptr.astype(np.int32), G.indices.astype(np.int32))
+    _, part = pymetis.part_graph(n_parts, adjacency=adjacency, eweights=weights, recursive=True)
+    return np.asarray(part, np.int64)
+
+
+def dissection_order(incidence: sp.csr_array, part: np.ndarray) -> np.ndarray:
+    """``(k,)`` post-order elimination of the unknowns of ``incidence (n_patches, k)`` given each patch's
+    leaf ``part (n_patches,)`` of a binary dissection tree (part numbers: paths from the root, as
+    METIS's recursive bisection numbers them). Unknowns in no patch come first (they couple nothing)."""
+    T = sp.csr_array(incidence).T.tocsr()  # (k, n_patches): the patches of every unknown
+    count = np.diff(T.indptr)
+    used = count > 0
+    p = part[T.indices]
+    start = T.indptr[:-1][used]
+    lo = np.zeros(T.shape[0], np.int64)
+    hi = np.zeros(T.shape[0], np.int64)
+    lo[used] = np.minimum.reduceat(p, start)
+    hi[used] = np.maximum.reduceat(p, start)
+    level = np.frexp((lo ^ hi).astype(np.float64))[1].astype(np.int64)  # bit length: 0 when lo == hi
+    node_end = (((lo >> level) + 1) << level) - 1  # the last leaf under the separating node
+    node_end[~used] = -1
+    # post-order: by the node's last leaf, a child (lower level) before its parent; stable in the unknowns
+    return np.lexsort((level, node_end)).astype(np.int64)
