@@ -6,13 +6,12 @@ problem of the same shapes, and these fixtures keep the fits themselves.
 """
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
 from types import ModuleType
 
 import jax
 import numpy as np
 import pytest
+from bench_modules import bench_module
 from scipy.spatial import Delaunay
 
 jax.config.update("jax_enable_x64", True)
@@ -20,9 +19,6 @@ jax.config.update("jax_enable_x64", True)
 from trispline.fit.datasets.franke import exponential, sample_points  # noqa: E402
 from trispline.fit.pipeline import fit_surface  # noqa: E402
 from trispline.spline.testing.domains import orient_ccw  # noqa: E402
-
-BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
-
 
 def franke_mesh(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """``V (n, 3)``, ``F``: Franke's exponential over ``n`` points of the unit square, Delaunay triangulated."""
@@ -41,10 +37,7 @@ def franke_fit():
 @pytest.fixture(scope="session")
 def accuracy_bench() -> ModuleType:
     """``benchmarks/bench_accuracy.py`` as a module (its ``run_case`` serves the accuracy tests)."""
-    spec = importlib.util.spec_from_file_location("bench_accuracy", BENCHMARKS / "bench_accuracy.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return bench_module("bench_accuracy")
 
 
 @pytest.fixture(scope="session")

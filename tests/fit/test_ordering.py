@@ -6,14 +6,12 @@ METIS ordering of the whole matrix makes, and the solves agree to rounding.
 """
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import jax
 import numpy as np
 import pytest
 import scipy.sparse as sp
 from hypothesis import given
+from bench_modules import speed_scan
 from hypothesis import strategies as st
 
 jax.config.update("jax_enable_x64", True)
@@ -81,19 +79,10 @@ def test_small_problems_keep_the_solvers_own_ordering():
     assert patch_ordering(B) is None  # fewer unknowns than ORDERING_MIN_UNKNOWNS
 
 
-def _scan(n_faces: int) -> tuple[np.ndarray, np.ndarray]:
-    """The speed benchmark's jittered-grid height field (``benchmarks/bench_fit_speed.py``)."""
-    path = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_fit_speed.py"
-    spec = importlib.util.spec_from_file_location("bench_fit_speed", path)
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
-    return bench.make_scan(n_faces)
-
-
 @pytest.fixture(scope="module")
 def fit_matrix():
     """The upper normal matrix of a 20k-face scan (110k unknowns) and its patch ordering."""
-    V, F = _scan(20000)
+    V, F = speed_scan(20000)
     space = build_space(Triangulation(V[:, :2], F))
     makers = []
     prob = en.setup_problem(V, space, FitWeights(), on_pattern=lambda pattern, ordering: makers.append(ordering))

@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import ctypes
 import importlib.util
-from pathlib import Path
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from bench_modules import speed_scan
 from scipy.spatial import Delaunay
 
 jax.config.update("jax_enable_x64", True)
@@ -43,15 +43,6 @@ from trispline.spline.util.parallel import Workers  # noqa: E402
 from trispline.spline.util.sparse import compact  # noqa: E402
 
 HAS_PARDISO = importlib.util.find_spec("pypardiso") is not None
-
-
-def _scan(n_faces: int) -> tuple[np.ndarray, np.ndarray]:
-    """The speed benchmark's jittered-grid height field (``benchmarks/bench_fit_speed.py``)."""
-    path = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_fit_speed.py"
-    spec = importlib.util.spec_from_file_location("bench_fit_speed", path)
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
-    return bench.make_scan(n_faces)
 
 
 def _franke(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -167,7 +158,7 @@ def test_factor_analysed_on_the_pattern_equals_a_plain_one(backend, monkeypatch)
     plain factor of the values (same ordering, same numbers); another pattern is refused by
     ``set_values`` and analysed afresh by ``PatternAnalysis.factor``."""
     monkeypatch.setenv("TRISPLINE_SOLVER", backend)
-    V, F = _scan(6000)
+    V, F = speed_scan(6000)
     space = build_space(Triangulation(V[:, :2], F))
     analysis, orders = solve.PatternAnalysis(), []
 
@@ -379,7 +370,7 @@ def test_factor_memory_estimates_match_the_measured_factor():
     (``mkl_mem_stat``; the factor is all PARDISO allocates there).
     """
     for n_faces in (4_000, 10_000, 20_000):
-        V, F = _scan(n_faces)
+        V, F = speed_scan(n_faces)
         space = build_space(Triangulation(V[:, :2], F))
         prob = en.setup_problem(V, space, FitWeights())
         factor = SparseCholesky(prob.H_upper, "pardiso", upper=True, defer=True)
