@@ -11,6 +11,7 @@ import argparse
 import json
 import os
 import sys
+import threading
 import traceback
 import warnings
 from pathlib import Path
@@ -79,11 +80,14 @@ class Stages:
 
     Each stage is :data:`UNITS` steps of the bar: :meth:`done` completes the current (or the
     named) stage, :meth:`at` moves within a stage as its chunks of work finish, so a long
-    stage shows live progress and the elapsed time ticks on.
+    stage shows live progress. The elapsed time ticks on every :data:`TICK` seconds also through
+    work that reports nothing until it ends (PARDISO's numerical factorisation, a compiled step).
     """
 
     #: Bar steps per stage.
     UNITS = 100
+    #: Seconds between redraws of the elapsed time.
+    TICK = 0.5
 
     def __init__(self, names: Sequence[str], title: str, disable: bool) -> None:
         from tqdm import tqdm
@@ -94,6 +98,17 @@ class Stages:
         self.position = 0  # bar steps done
         self.bar = tqdm(total=len(self.names) * self.UNITS, desc=self._desc(), file=sys.stderr, disable=disable,
                         delay=1.0, leave=False, bar_format="{desc} {bar:20} {percentage:3.0f}% [{elapsed}]")
+        self._stop = threading.Event()
+        self._ticker = None if disable else threading.Thread(target=self._tick, name="trispline-bar", daemon=True)
+        if self._ticker is not None:
+            self._ticker.start()
+
+    def _tick(self) -> None:
+        """Redraw the bar (its elapsed time) every :data:`TICK` seconds once it is due to show."""
+        bar = self.bar
+        while not self._stop.wait(self.TICK):
+            if bar._time() - bar.start_t >= bar.delay:
+                bar.refresh()
 
     def _desc(self) -> str:
         name = self.names[self.i] if self.i < len(self.names) else "done"
@@ -121,6 +136,9 @@ class Stages:
         self._move(int(self.names.index(name) * self.UNITS + min(max(fraction, 0.0), 1.0) * (self.UNITS - 1)))
 
     def close(self) -> None:
+        self._stop.set()
+        if self._ticker is not None:
+            self._ticker.join()
         self.bar.close()
 
     def __enter__(self) -> "Stages":

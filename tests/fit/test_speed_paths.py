@@ -9,6 +9,7 @@ against Gauss--Newton iterated to convergence.
 from __future__ import annotations
 
 import ctypes
+import time
 import importlib.util
 
 import jax
@@ -359,6 +360,26 @@ def test_cli_stages_bar_moves_within_a_stage():
     assert bar.i == 2 and bar.position == 2 * Stages.UNITS
     bar.at("a", 0.9)  # never backwards
     assert bar.i == 2 and bar.position == 2 * Stages.UNITS
+
+
+def test_cli_bar_elapsed_time_ticks_through_a_silent_stage(capsys, monkeypatch):
+    """A stage that reports nothing until it ends (PARDISO's numerical phase) still shows its elapsed
+    time counting: the bar redraws itself once it is due to show (after a second), and not before."""
+    from trispline.fit.cli.common import Stages
+
+    monkeypatch.setattr(Stages, "TICK", 0.05)
+    bar = Stages(["factor"], "fit", disable=False)
+    bar.bar.delay = 0.3
+    time.sleep(0.15)
+    assert capsys.readouterr().err == ""  # not yet due: nothing drawn
+    for _ in range(100):  # redrawn within a few ticks once due, with nothing reported by the stage
+        time.sleep(0.05)
+        if "fit: factor" in capsys.readouterr().err:
+            break
+    else:
+        pytest.fail("the bar never redrew itself")
+    bar.close()
+    assert not bar._ticker.is_alive()
 
 
 # ---------------------------------------------------------------- the factor's memory
