@@ -137,6 +137,9 @@ class QuadraticStep:
     :meth:`run` waits for the compile (re-raising its errors) and runs the step.
     """
 
+    #: Solves with the factor in one step (:func:`_one_step`: the step's, then the refinement's).
+    HOST_SOLVES = 2
+
     def __init__(self, prob: en.Problem) -> None:
         self.prob = prob
         x0 = jax.ShapeDtypeStruct(prob.rhs.shape, jnp.float64)

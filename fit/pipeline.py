@@ -34,7 +34,7 @@ from . import energy as en
 from .energy.data import DataPoints, as_data_points
 from .errors import FitError
 from .gauss_newton import QuadraticStep, iterate
-from .progress import stage_reporter
+from .progress import counting, span, stage_reporter
 from .solve import PatternAnalysis, check_memory, estimate_factor_bytes, release_free_heap, require_x64
 from .stages import ASSEMBLE, BUILD, FACTOR, FINISH, PARAMETERIZE, SOLVE
 from .weights import FitWeights
@@ -180,8 +180,10 @@ def fit_surface(
     step = QuadraticStep(prob) if solver is None and not prob.nonlinear else None  # compiles meanwhile
     factor = analysis.factor(prob.H_upper, max_bytes="available", report=stage_reporter(progress, FACTOR))
     clock(FACTOR)
-    if step is not None:
+    if step is not None:  # the bar moves as each host solve inside the compiled step ends
+        factor.on_solve = counting(span(stage_reporter(progress, SOLVE), 0.0, 0.9), QuadraticStep.HOST_SOLVES)
         x, energies, steps, ok = step.run(factor)
+        factor.on_solve = None
     else:
         x, energies, steps, ok = iterate(prob, factor, solver, max_steps)
     clock(SOLVE)

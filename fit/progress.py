@@ -14,7 +14,7 @@ from typing import Any, Callable
 
 from trispline.spline.util.parallel import Workers, ranges
 
-__all__ = ["Report", "silent", "span", "map_reporting", "accepts_fraction", "stage_reporter"]
+__all__ = ["Report", "silent", "span", "map_reporting", "accepts_fraction", "stage_reporter", "counting"]
 
 #: ``report(fraction)``: ``fraction`` in [0, 1] of the current piece of work is done.
 Report = Callable[[float], None]
@@ -64,3 +64,15 @@ def stage_reporter(progress: Callable[..., Any] | None, stage: str) -> Report:
         return silent
     start = time.perf_counter()
     return lambda fraction: progress(stage, time.perf_counter() - start, fraction)
+
+
+def counting(report: Report | None, parts: int) -> Callable[[], None]:
+    """A callable that reports ``report(k / parts)`` on its ``k``-th call: for work that announces each of
+    ``parts`` equal pieces as it ends (a compiled step's host solves), capped at 1."""
+    report = report or silent
+    done = [0]
+
+    def tick() -> None:
+        done[0] += 1
+        report(min(done[0] / parts, 1.0))
+    return tick

@@ -192,6 +192,8 @@ class SparseCholesky:
         _FACTORS[self.handle] = self
         self.backend = _pick_backend(backend, self.n)
         self.analysis_seconds = 0.0
+        #: Called after every solve (also those of a compiled step's host callbacks): progress.
+        self.on_solve: Callable[[], None] | None = None
         U = H if upper else sp.triu(H, format="csr")
         #: Estimated bytes of the numerical factorisation (PARDISO: its own analysis).
         self.estimate = estimate_factor_bytes(self.n, U.nnz)
@@ -327,7 +329,13 @@ class SparseCholesky:
         return x
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        """``H^{-1} b`` for ``b: (n,)`` or ``(n, k)``."""
+        """``H^{-1} b`` for ``b: (n,)`` or ``(n, k)``; calls :attr:`on_solve` (when set) after it."""
+        x = self._solve(b)
+        if self.on_solve is not None:
+            self.on_solve()
+        return x
+
+    def _solve(self, b: np.ndarray) -> np.ndarray:
         if self.backend == "pardiso":  # one copy in (Fortran order), one out
             b = np.asarray(b, dtype=np.float64)
             x = self._pardiso(33, np.asfortranarray(b.reshape(self.n, -1)))

@@ -31,7 +31,7 @@ from trispline.fit.gauss_newton import QuadraticStep, iterate  # noqa: E402
 from trispline.fit.pipeline import fit_surface  # noqa: E402
 from trispline.fit.progress import accepts_fraction, map_reporting, span  # noqa: E402
 from trispline.fit.solve import SparseCholesky, estimate_factor_bytes  # noqa: E402
-from trispline.fit.stages import ASSEMBLE, FIT_STAGES  # noqa: E402
+from trispline.fit.stages import ASSEMBLE, FIT_STAGES, SOLVE  # noqa: E402
 from trispline.fit.targets import (RBF_KERNELS, _poly3, local_rbf_fit,  # noqa: E402
                                     padded_neighbours, vertex_rings)
 from trispline.fit.weights import FitWeights  # noqa: E402
@@ -332,6 +332,9 @@ def test_fit_with_progress_fractions():
     assert ends == list(FIT_STAGES) and res.iterations == 1
     within = [c[2] for c in calls if c[0] == ASSEMBLE and c[2] is not None]
     assert len(within) >= 4 and within == sorted(within) and 0 < within[0] and within[-1] <= 1
+    # the compiled step reports as each of its two host solves ends, before the stage's end
+    solve = [c[2] for c in calls if c[0] == SOLVE]
+    assert solve == [0.45, 0.9, None]
     two = []
     V2, F2 = synthetic_scan(200)
     fit_surface(V2, F2, progress=lambda stage, seconds: two.append(stage))
