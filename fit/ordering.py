@@ -49,7 +49,10 @@ def patch_ordering(incidence: sp.csr_array, leaf: int = LEAF_PATCHES,
     except ImportError:  # an optional speed-up: PARDISO's own METIS orders the matrix then
         return None
     depth = max(1, int(np.ceil(np.log2(n / leaf))))
-    part = _parts(pymetis, incidence, 1 << depth)
+    try:
+        part = _parts(pymetis, incidence, 1 << depth)
+    except (RuntimeError, ValueError, MemoryError):  # METIS refused the graph: PARDISO orders it instead
+        return None
     return dissection_order(incidence, part)
 
 

@@ -79,6 +79,17 @@ def test_small_problems_keep_the_solvers_own_ordering():
     assert patch_ordering(B) is None  # fewer unknowns than ORDERING_MIN_UNKNOWNS
 
 
+def test_a_graph_metis_refuses_leaves_the_ordering_to_the_solver(monkeypatch):
+    from trispline.fit import ordering
+
+    def refuse(*args):
+        raise RuntimeError("METIS: input error")
+
+    monkeypatch.setattr(ordering, "_parts", refuse)
+    B = sp.random_array((4000, 30000), density=1e-3, format="csr", rng=0)
+    assert patch_ordering(B) is None
+
+
 @pytest.fixture(scope="module")
 def fit_matrix():
     """The upper normal matrix of a 20k-face scan (110k unknowns) and its patch ordering."""
