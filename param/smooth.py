@@ -41,6 +41,7 @@ import scipy.sparse as sp
 
 from trispline.spline.tolerances import SMOOTH_CORNER_DEGREES, SMOOTH_RCOND
 from trispline.spline.util import gather
+from trispline.spline.util.parallel import Workers, ranges
 from trispline.spline.util.spd import solve_spd
 
 from .distortion import fold_mask
@@ -178,10 +179,20 @@ def _neighbourhoods(V: np.ndarray, F: np.ndarray, rings: int) -> tuple[np.ndarra
 
 def _interior_fits(V: np.ndarray, nbr: np.ndarray, h: np.ndarray, degree: int):
     """Per chunk of :data:`CHUNK` vertices ``(sl, nb, s)``: the slice and :func:`_interior_weights`
-    of its vertices (the weights depend on the surface alone, not on the uv they are applied to)."""
-    for lo in range(0, len(V), CHUNK):
-        sl = slice(lo, min(lo + CHUNK, len(V)))
-        yield (sl, *_interior_weights(V, nbr[sl], h[sl], degree))
+    of its vertices (the weights depend on the surface alone, not on the uv they are applied to).
+
+    The chunks run on a thread per core, a batch of two per thread at a time (numpy's batched
+    eigen-solves and solves release the GIL; BLAS held to one thread each meanwhile), so at most
+    that many chunks' weights are held at once."""
+    parts = ranges(len(V), CHUNK)
+
+    def weights(lo: int, hi: int) -> tuple:
+        return (slice(lo, hi), *_interior_weights(V, nbr[lo:hi], h[lo:hi], degree))
+
+    with Workers(len(V), parallel_min=2 * CHUNK, serial_blas=True) as work:
+        batch = 2 * work.threads
+        for i in range(0, len(parts), batch):
+            yield from [job.result() for job in [work.submit(weights, lo, hi) for lo, hi in parts[i:i + batch]]]
 
 
 def _interior(uv: np.ndarray, nb: np.ndarray, s: np.ndarray) -> np.ndarray:
