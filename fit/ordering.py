@@ -21,6 +21,9 @@ against 102.9M, 898 MB, 72 GFlop) and as fast to compute (benchmarks/README.md, 
 """
 from __future__ import annotations
 
+import ctypes
+import functools
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -32,6 +35,8 @@ LEAF_PATCHES = 6
 #: Edge weight of a pair of patches per unknown they share with no other patch (see :func:`_parts`):
 #: divisible by 1-6, 8, 9, 10 and 12, the ``s - 1`` of the unknowns of a mesh's patches.
 EDGE_SCALE = 360.0
+#: METIS 5's ``METIS_NOPTIONS`` and ``METIS_OK``.
+METIS_NOPTIONS, METIS_OK = 40, 1
 #: Fewer unknowns than this: PARDISO's own ordering (a few ms either way).
 ORDERING_MIN_UNKNOWNS = 20_000
 
@@ -70,10 +75,54 @@ def _parts(pymetis, incidence: sp.csr_array, n_parts: int) -> np.ndarray:
     G = sp.csr_array(B @ (B.T > 0).astype(np.float64))
     G.setdiag(0)
     G.eliminate_zeros()
-    weights = np.maximum(np.rint(G.data), 1).astype(np.int32)
-    adjacency = pymetis.CSRAdjacency(G.indptr.astype(np.int32), G.indices.astype(np.int32))
-    _, part = pymetis.part_graph(n_parts, adjacency=adjacency, eweights=weights, recursive=True)
-    return np.asarray(part, np.int64)
+    weights = np.maximum(np.rint(G.data), 1)
+    return _recursive_bisection(pymetis, G.indptr, G.indices, weights, n_parts)
+
+
+def _recursive_bisection(pymetis, xadj: np.ndarray, adjncy: np.ndarray, weights: np.ndarray,
+                         n_parts: int) -> np.ndarray:
+    """``METIS_PartGraphRecursive`` of the graph ``(xadj, adjncy)`` with edge ``weights``: ``(n,)`` parts.
+
+    Called through ``ctypes`` on the METIS that ``pymetis`` carries, which releases the GIL for the
+    call (``pymetis.part_graph`` holds it: at 100k faces 1.6 s in which the fit's assembly, running
+    beside it in the main thread, could start no new work); the same partition, the same options.
+    ``pymetis.part_graph`` where that library or its symbol is not found.
+    """
+    call = _metis_partition()
+    idx = pymetis.zero_copy_dtype()
+    if call is None:
+        adjacency = pymetis.CSRAdjacency(xadj.astype(idx), adjncy.astype(idx))
+        _, part = pymetis.part_graph(n_parts, adjacency=adjacency, eweights=weights.astype(idx), recursive=True)
+        return np.asarray(part, np.int64)
+    lib, width = call
+    xadj, adjncy, weights = (np.ascontiguousarray(a, idx) for a in (xadj, adjncy, weights))
+    options = np.zeros(METIS_NOPTIONS, idx)
+    pointer = ctypes.c_void_p
+    lib.METIS_SetDefaultOptions(options.ctypes.data_as(pointer))
+    n = xadj.size - 1
+    part = np.zeros(n, idx)
+    objective = width(0)
+    status = lib.METIS_PartGraphRecursive(
+        ctypes.byref(width(n)), ctypes.byref(width(1)), xadj.ctypes.data_as(pointer), adjncy.ctypes.data_as(pointer),
+        None, None, weights.ctypes.data_as(pointer), ctypes.byref(width(n_parts)), None, None,
+        options.ctypes.data_as(pointer), ctypes.byref(objective), part.ctypes.data_as(pointer))
+    if status != METIS_OK:
+        raise RuntimeError(f"METIS_PartGraphRecursive returned {status}")
+    return part.astype(np.int64)
+
+
+@functools.cache
+def _metis_partition() -> tuple[ctypes.CDLL, type] | None:
+    """``(library, idx_t)`` of the METIS inside ``pymetis``'s extension module, or None."""
+    try:
+        import pymetis
+        import pymetis._internal as internal
+
+        lib = ctypes.CDLL(internal.__file__)
+        lib.METIS_PartGraphRecursive, lib.METIS_SetDefaultOptions  # noqa: B018 - both exported
+    except (ImportError, OSError, AttributeError):
+        return None
+    return lib, ctypes.c_int32 if pymetis.zero_copy_dtype() == np.int32 else ctypes.c_int64
 
 
 def dissection_order(incidence: sp.csr_array, part: np.ndarray) -> np.ndarray:
