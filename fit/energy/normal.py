@@ -168,6 +168,20 @@ def upper_pattern(A: sp.csr_array, incidence: sp.csr_array | None = None) -> sp.
     return sp.csr_array((C.data, C.indices, C.indptr), shape=(k, k))
 
 
+def _patch_residual_rhs(parts: NormalParts, c: np.ndarray) -> np.ndarray:
+    """``(n, 21, d)`` ``patch_rhs - blocks @ c`` for the fixed part ``c (n, 21, d)``, in chunks of patches
+    on a thread per core (100k batched 21 x 21 products: 0.3 s on one core)."""
+    r = np.empty_like(parts.patch_rhs)
+
+    def chunk(lo: int, hi: int) -> None:
+        np.matmul(parts.blocks[lo:hi], c[lo:hi], out=r[lo:hi])
+        np.subtract(parts.patch_rhs[lo:hi], r[lo:hi], out=r[lo:hi])
+
+    with Workers(len(r), parallel_min=2 * PATCH_CHUNK, serial_blas=True) as work:
+        work.map(chunk, len(r), PATCH_CHUNK)
+    return r
+
+
 def normal_equations(A: sp.sparray | sp.spmatrix, c: np.ndarray, frame_pos: np.ndarray,
                      parts: NormalParts, *, upper: bool = False, report: Report | None = None,
                      incidence: sp.csr_array | None = None, release: bool = False) -> tuple[sp.csr_array, np.ndarray]:
@@ -194,7 +208,7 @@ def normal_equations(A: sp.sparray | sp.spmatrix, c: np.ndarray, frame_pos: np.n
     A = sp.csr_array(A)
     A.sort_indices()
     n, d = parts.blocks.shape[0], parts.patch_rhs.shape[2]
-    r = parts.patch_rhs - np.matmul(parts.blocks, np.asarray(c).reshape(n, NCTRL, d))
+    r = _patch_residual_rhs(parts, np.asarray(c).reshape(n, NCTRL, d))
     rhs = np.asarray(A.T @ r.reshape(n * NCTRL, d))
     del r
     np.add.at(rhs, frame_pos, parts.frame_rhs)
