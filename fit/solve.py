@@ -24,6 +24,7 @@ from __future__ import annotations
 import ctypes
 import itertools
 import os
+import sys
 import threading
 import time
 import weakref
@@ -120,12 +121,19 @@ def pardiso_factor_bytes(iparm: np.ndarray) -> int:
 
 
 def release_free_heap() -> None:
-    """Hand the C heap's free memory back to the system (glibc ``malloc_trim``; elsewhere nothing).
+    """Hand the C heap's free memory back to the system (glibc ``malloc_trim``; elsewhere nothing),
+    and MKL's unused buffers first where PARDISO has run (``mkl_free_buffers``).
 
     The assembly's chunks, run on a thread each, leave freed memory in the threads' malloc
     arenas: at 100k faces 430 MB of the 1.2 GB resident after assembling, which the
-    factorisation would otherwise sit on top of.
+    factorisation would otherwise sit on top of. MKL keeps what PARDISO's analysis freed in
+    its own pools: ~50 MB of the 100k-face fit's peak (the step), measured as the mean of four runs.
     """
+    if "pypardiso" in sys.modules and os.environ.get("PYPARDISO_MKL_RT"):  # MKL loaded by PARDISO already
+        try:
+            ctypes.CDLL(os.environ["PYPARDISO_MKL_RT"]).mkl_free_buffers()
+        except (OSError, AttributeError):  # pragma: no cover - another MKL
+            pass
     try:
         ctypes.CDLL("libc.so.6").malloc_trim(0)
     except (OSError, AttributeError):  # pragma: no cover - not glibc
