@@ -11,11 +11,12 @@ Rows (each in its own process, so its peak memory is its own):
 Peer in the same run: ``scipy.interpolate.CloughTocher2DInterpolator`` building its
 interpolant on the same points (a height-field-only cubic, shown for scale); ``x CT`` is
 the row's total over that build time. ``total/factor`` is the row's total (load to save)
-over its factorisation: the same normal matrix analysed and factored again after the fit with
-nothing else running (``factor alone``; inside the fit the analysis overlaps the assembly and
-shares its cores; the CLI row: its factor stage); ``peak MiB`` the process's peak resident memory; ``CPU s``
-the process's CPU seconds (user + system: what the row costs whatever the machine's load,
-the peer build excluded for the CLI row, included for in-process rows). ``analysis``: the wall
+over its factorisation: the same normal matrix ordered (the fit's patch ordering), analysed and
+factored again after the fit with nothing else running (``factor alone``; inside the fit the order
+and the analysis overlap the assembly and share its cores; the CLI row: its factor stage); ``peak
+MiB`` the process's peak resident memory; ``CPU s`` the process's CPU seconds (user + system: what
+the row costs whatever the machine's load; for in-process rows they include the peer's build and
+the ``alone`` factorisation, ~7 CPU s at 100k faces; the CLI row's are the fit's own). ``analysis``: the wall
 seconds of the factorisation's analysis, which runs in the background beside ``assemble``
 (``fit.solve.PatternAnalysis``), ``wait`` how long the ``factor`` stage waited for it (in-process rows).
 
