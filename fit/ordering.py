@@ -83,9 +83,10 @@ def _recursive_bisection(pymetis, xadj: np.ndarray, adjncy: np.ndarray, weights:
                          n_parts: int) -> np.ndarray:
     """``METIS_PartGraphRecursive`` of the graph ``(xadj, adjncy)`` with edge ``weights``: ``(n,)`` parts.
 
-    Called through ``ctypes`` on the METIS that ``pymetis`` carries, which releases the GIL for the
-    call (``pymetis.part_graph`` holds it: at 100k faces 1.6 s in which the fit's assembly, running
-    beside it in the main thread, could start no new work); the same partition, the same options.
+    Called through ``ctypes``, which releases the GIL for the call, on the METIS library that
+    ``pymetis`` carries (``pymetis.part_graph`` holds the GIL: at 100k faces 1.6 s in which the fit's
+    assembly, running beside it in the main thread, could start no new work); the same partition,
+    the same options.
     ``pymetis.part_graph`` where that library or its symbol is not found.
     """
     call = _metis_partition()
