@@ -40,9 +40,8 @@ def map_reporting(work: Workers, fn: Callable[[int, int], Any], n: int, chunk: i
     assembly); the pool runs a range per thread at a time, so no more temporaries are alive."""
     report = report or silent
     parts = ranges(n, chunk)
-    jobs = [work.submit(fn, lo, hi) for lo, hi in parts]
     out: list[Any] = []
-    for (_, hi), job in zip(parts, jobs):
+    for (_, hi), job in zip(parts, work.start(fn, n, chunk)):
         out.append(job.result())
         report(hi / max(n, 1))
     return out

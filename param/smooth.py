@@ -192,7 +192,8 @@ def _interior_fits(V: np.ndarray, nbr: np.ndarray, h: np.ndarray, degree: int):
     with Workers(len(V), parallel_min=2 * CHUNK, serial_blas=True) as work:
         batch = 2 * work.threads
         for i in range(0, len(parts), batch):
-            yield from [job.result() for job in [work.submit(weights, lo, hi) for lo, hi in parts[i:i + batch]]]
+            lo, hi = parts[i][0], parts[min(i + batch, len(parts)) - 1][1]
+            yield from [job.result() for job in work.start(weights, hi - lo, CHUNK, offset=lo)]
 
 
 def _interior(uv: np.ndarray, nb: np.ndarray, s: np.ndarray) -> np.ndarray:
