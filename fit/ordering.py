@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import ctypes
 import functools
+import importlib.util
 
 import numpy as np
 import scipy.sparse as sp
@@ -49,19 +50,17 @@ def patch_ordering(incidence: sp.csr_array, leaf: int = LEAF_PATCHES,
     n, k = incidence.shape
     if k < min_unknowns or n < 4 * leaf:
         return None
-    try:
-        import pymetis
-    except ImportError:  # an optional speed-up: PARDISO's own METIS orders the matrix then
+    if importlib.util.find_spec("pymetis") is None:  # an optional speed-up: PARDISO's own METIS orders it then
         return None
     depth = max(1, int(np.ceil(np.log2(n / leaf))))
     try:
-        part = _parts(pymetis, incidence, 1 << depth)
+        part = _parts(incidence, 1 << depth)
     except (RuntimeError, ValueError, MemoryError):  # METIS refused the graph: PARDISO orders it instead
         return None
     return dissection_order(incidence, part)
 
 
-def _parts(pymetis, incidence: sp.csr_array, n_parts: int) -> np.ndarray:
+def _parts(incidence: sp.csr_array, n_parts: int) -> np.ndarray:
     """``(n_patches,)`` part of every patch: METIS's recursive bisection of the patch graph.
 
     An unknown shared by ``s`` patches is a hyperedge; its ``s (s - 1) / 2`` pairs each weigh
@@ -76,11 +75,10 @@ def _parts(pymetis, incidence: sp.csr_array, n_parts: int) -> np.ndarray:
     G.setdiag(0)
     G.eliminate_zeros()
     weights = np.maximum(np.rint(G.data), 1)
-    return _recursive_bisection(pymetis, G.indptr, G.indices, weights, n_parts)
+    return _recursive_bisection(G.indptr, G.indices, weights, n_parts)
 
 
-def _recursive_bisection(pymetis, xadj: np.ndarray, adjncy: np.ndarray, weights: np.ndarray,
-                         n_parts: int) -> np.ndarray:
+def _recursive_bisection(xadj: np.ndarray, adjncy: np.ndarray, weights: np.ndarray, n_parts: int) -> np.ndarray:
     """``METIS_PartGraphRecursive`` of the graph ``(xadj, adjncy)`` with edge ``weights``: ``(n,)`` parts.
 
     Called through ``ctypes``, which releases the GIL for the call, on the METIS library that
@@ -89,13 +87,15 @@ def _recursive_bisection(pymetis, xadj: np.ndarray, adjncy: np.ndarray, weights:
     the same options.
     ``pymetis.part_graph`` where that library or its symbol is not found.
     """
-    call = _metis_partition()
-    idx = pymetis.zero_copy_dtype()
-    if call is None:
+    import pymetis
+
+    idx = pymetis.zero_copy_dtype()  # METIS's idx_t
+    lib = _metis_library()
+    if lib is None:
         adjacency = pymetis.CSRAdjacency(xadj.astype(idx), adjncy.astype(idx))
         _, part = pymetis.part_graph(n_parts, adjacency=adjacency, eweights=weights.astype(idx), recursive=True)
         return np.asarray(part, np.int64)
-    lib, width = call
+    width = np.ctypeslib.as_ctypes_type(idx)
     xadj, adjncy, weights = (np.ascontiguousarray(a, idx) for a in (xadj, adjncy, weights))
     options = np.zeros(METIS_NOPTIONS, idx)
     pointer = ctypes.c_void_p
@@ -113,17 +113,16 @@ def _recursive_bisection(pymetis, xadj: np.ndarray, adjncy: np.ndarray, weights:
 
 
 @functools.cache
-def _metis_partition() -> tuple[ctypes.CDLL, type] | None:
-    """``(library, idx_t)`` of the METIS inside ``pymetis``'s extension module, or None."""
+def _metis_library() -> ctypes.CDLL | None:
+    """The METIS inside ``pymetis``'s extension module (both entry points exported), or None."""
     try:
-        import pymetis
         import pymetis._internal as internal
 
         lib = ctypes.CDLL(internal.__file__)
         lib.METIS_PartGraphRecursive, lib.METIS_SetDefaultOptions  # noqa: B018 - both exported
     except (ImportError, OSError, AttributeError):
         return None
-    return lib, ctypes.c_int32 if pymetis.zero_copy_dtype() == np.int32 else ctypes.c_int64
+    return lib
 
 
 def dissection_order(incidence: sp.csr_array, part: np.ndarray) -> np.ndarray:
