@@ -31,7 +31,7 @@ from . import _igl
 from .distortion import conformal_energy
 from .errors import MeshError
 from .repair import fill_holes, tutte
-from .validate import ValidatedMesh, face_areas_3d
+from .validate import ValidatedMesh, face_areas_3d, sliver_message
 
 __all__ = ["MAPS", "SLIM_MAX_ITERATIONS", "harmonic_uv", "far_apart", "lscm_uv", "slim_uv", "raw_map"]
 
@@ -73,7 +73,12 @@ def lscm_uv(vm: ValidatedMesh, pins: np.ndarray, at: np.ndarray, *, backend: str
     Qf = Q[free]
     x = np.empty(2 * nv)
     x[fixed] = values
-    x[free] = solve_spd(Qf[:, free], -(Qf[:, fixed] @ values), backend=backend)
+    try:
+        x[free] = solve_spd(Qf[:, free], -(Qf[:, fixed] @ values), backend=backend)
+    except np.linalg.LinAlgError:  # a singular conformal energy: faces of (nearly) no area
+        why = sliver_message(vm.V, vm.F) or "the mesh is nearly degenerate"
+        raise MeshError(f"the lscm map of this mesh is undefined (its system is singular): {why}",
+                        ["degenerate"]) from None
     return x.reshape(2, nv).T.copy()
 
 

@@ -651,6 +651,41 @@ def test_a_sliver_is_bad_input(tmp_path, capsys):
     np.testing.assert_allclose(face_aspects(V, np.array([[0, 1, 2]])), [1e8], rtol=1e-6)
 
 
+@pytest.mark.parametrize("mode, match", [((), "lscm map of this mesh is undefined"),
+                                         (("--param", "harmonic"), "slivers too thin to fit"),
+                                         (("--tolerance-rel", "0.01"), "lscm map of this mesh is undefined"),
+                                         (("--tolerance-rel", "0.01", "--param", "harmonic"),
+                                          "too thin for a coarse domain")])
+def test_a_strip_of_nearly_zero_width_is_bad_input(tmp_path, capfd, mode, match):
+    """A scan 1e-9 wide: exit 2 naming the problem, in both fits and with either map -- not a failed
+    factorisation (exit 1) nor a solver's own warning on stdout (``capfd``: the descriptors, C's printf too)."""
+    x = np.linspace(0.0, 1.0, 120)
+    V = np.r_[np.c_[x, 0 * x, 0 * x], np.c_[x, 0 * x + 1e-9, 0 * x]]
+    n = x.size
+    F = np.r_[[[i, i + 1, n + i] for i in range(n - 1)], [[i + 1, n + i + 1, n + i] for i in range(n - 1)]]
+    path = tmp_path / "strip.obj"  # every digit written: trimesh's OBJ keeps 8 decimals, the strip's width none
+    path.write_text("".join(f"v {x:.17g} {y:.17g} {z:.17g}\n" for x, y, z in V)
+                    + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in F))
+    r = cli(capfd, "fit", path, "-o", tmp_path / "s.npz", "-q", *mode)
+    assert_cli_error(r, match)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["strip.obj"]
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("faces", [1, 2])
+def test_a_scan_of_one_or_two_triangles_approximates_without_warnings(tmp_path, capsys, faces):
+    """Every scan vertex is a coarse vertex: nothing is held out to choose the data weight, and nothing warns."""
+    V = np.array([[0, 0, 0], [1, 0, 0.1], [1, 1, 0.0], [0, 1, 0.2]], float)[: faces + 2]
+    F = np.array([[0, 1, 2], [0, 2, 3]])[:faces]
+    path = tmp_path / "tiny.obj"
+    trimesh.Trimesh(V, F, process=False).export(path)
+    r = cli(capsys, "fit", path, "-o", tmp_path / "s.npz", "--tolerance-rel", "0.01", "-q")
+    assert r.rc == 0 and r.err == ""
+    s = SplineSurface.load(tmp_path / "s.npz")  # corners=data: every corner point is a scan vertex
+    corners = s.evaluate(np.repeat(np.arange(faces), 3), np.tile(np.eye(3), (faces, 1)))
+    assert np.abs(corners[:, None, :] - V[None, :, :]).max(2).min(1).max() < 1e-12
+
+
 def test_demo_with_a_bad_option_leaves_no_folder(tmp_path, capsys):
     for args, message in ((["--mesh-out", "x.obj"], "unrecognized arguments: --mesh-out"),
                           (["--image", "x.png"], "unrecognized arguments: --image"),

@@ -71,7 +71,8 @@ from scipy.spatial import cKDTree
 
 from trispline.spline.checks import as_array, check_ids
 from trispline.spline.errors import InputError, TriangulationError
-from trispline.param import face_areas_3d
+from trispline.param import face_areas_3d, face_aspects
+from trispline.spline.tolerances import MAX_DOMAIN_ASPECT
 from trispline.spline.topology import Triangulation, signed_areas
 
 from .analysis import SPIKE_LEVELS, ScanAnalysis, analyse_scan
@@ -405,6 +406,11 @@ def _domain(scan_uv: np.ndarray, boundary: list[np.ndarray], interior: np.ndarra
     if len(tri.boundary_loops) != len(loops):
         raise InputError(f"the coarse domain on {ids.size} scan vertices has {len(tri.boundary_loops)} boundary "
                          f"loops, the scan {len(loops)}; the vertex budget may be too small for its outline and holes")
+    aspect = face_aspects(uv, faces)
+    if not aspect.max() <= MAX_DOMAIN_ASPECT:  # the scan's map is nearly degenerate: no fit is defined on it
+        raise InputError(f"the scan's parameterization is too thin for a coarse domain: its triangles over {ids.size} "
+                         f"scan vertices reach longest edge / height {aspect.max():.3g} (at most "
+                         f"{MAX_DOMAIN_ASPECT:g}); is the scan a strip of nearly zero width?")
     ang = face_angles(uv, faces)
     nb = int(sum(b.size for b in boundary))
     stats = DomainStats(n_vertices=int(ids.size), n_faces=int(faces.shape[0]), n_boundary=nb,

@@ -233,7 +233,7 @@ def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeig
     ones with detail a large one. ``located``: the scan's parameters (default :func:`scan_location`;
     the pipeline passes :func:`corrected_location`), ``unreached (n,)`` its points left out (default
     :func:`scan_location`'s), ``reference`` the bend term's (default :func:`quadric_reference`).
-    Returns ``(weight, {weight: score})``.
+    Returns ``(weight, {weight: score})``; ``(weights.data, {})`` when no scan vertex is left to hold out.
     """
     face, bary, unreached = _location(dom, located, unreached)
     n = V.shape[0]
@@ -241,6 +241,8 @@ def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeig
     test[dom.vertices] = False
     train = ~test & ~unreached
     test &= ~unreached
+    if not test.any():  # a scan (nearly) all coarse vertices: nothing left to predict
+        return weights.data, {}
     centre, size = _normalisation(V)
     Vn = (V - centre) / size
     space = build_space(dom.triangulation)

@@ -346,8 +346,8 @@ def _parameterize(args: argparse.Namespace, ui: UI, mesh: _Input) -> tuple[Any, 
 
     t0 = time.perf_counter()
     p = parameterize(mesh.V, mesh.F, method=args.param)
+    refuse_slivers(p.uv, p.faces)  # before the map's warnings: a refused fit says one thing
     _announce(ui, p)
-    refuse_slivers(p.uv, p.faces)
     return p, time.perf_counter() - t0
 
 

@@ -8,9 +8,13 @@ unknowns, 2 cores): PARDISO 5.3 s, CHOLMOD 18 s, libigl's own ``igl.lscm`` 76 s.
 """
 from __future__ import annotations
 
+import ctypes
 import functools
 import importlib.util
 import os
+import sys
+from contextlib import contextmanager
+from typing import Iterator
 
 import numpy as np
 import scipy.sparse as sp
@@ -63,7 +67,8 @@ def solve_spd(A: sp.spmatrix, b: np.ndarray, *, backend: str | None = None,
     ``(n, k)``; the same shape.
 
     Only ``A``'s upper triangle is read. ``backend``: ``"pardiso"``, ``"cholespy"`` or None
-    (:func:`spd_backend`'s rule, with ``pardiso_min``).
+    (:func:`spd_backend`'s rule, with ``pardiso_min``). Raises :class:`numpy.linalg.LinAlgError`
+    when ``A`` is not positive definite (either backend).
     """
     n = A.shape[0]
     b = np.ascontiguousarray(b, dtype=np.float64)
@@ -77,6 +82,8 @@ def solve_spd(A: sp.spmatrix, b: np.ndarray, *, backend: str | None = None,
         solver = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite: the upper triangle
         try:
             return np.asarray(solver.solve(U, b), dtype=np.float64)
+        except pypardiso.pardiso_wrapper.PyPardisoError as exc:  # -4: a zero or negative pivot
+            raise np.linalg.LinAlgError(f"the matrix is not positive definite (PARDISO error {exc})") from exc
         finally:
             solver.free_memory(everything=True)
     import cholespy
@@ -84,6 +91,36 @@ def solve_spd(A: sp.spmatrix, b: np.ndarray, *, backend: str | None = None,
     L = sp.csr_matrix(U.T)  # cholespy reads the lower triangle of a CSR matrix
     L.sort_indices()
     x = np.zeros_like(b)
-    cholespy.CholeskySolverD(n, L.indptr.astype(np.int32), L.indices.astype(np.int32),
-                             np.ascontiguousarray(L.data), cholespy.MatrixType.CSR).solve(b, x)
+    try:
+        with _c_stdout_silenced():  # CHOLMOD prints its own warning to stdout before raising
+            cholespy.CholeskySolverD(n, L.indptr.astype(np.int32), L.indices.astype(np.int32),
+                                     np.ascontiguousarray(L.data), cholespy.MatrixType.CSR).solve(b, x)
+    except ValueError as exc:  # cholespy's "Matrix is not positive definite!"
+        if "positive definite" not in str(exc):
+            raise
+        raise np.linalg.LinAlgError(f"the matrix is not positive definite ({exc})") from exc
     return x
+
+
+@contextmanager
+def _c_stdout_silenced() -> Iterator[None]:
+    """File descriptor 1 onto the null device while C code runs (C's buffers flushed on both sides), so
+    that a library's ``printf`` cannot add a stray line to the command line's one message."""
+    libc = ctypes.CDLL(None)
+    if sys.stdout is not None:
+        sys.stdout.flush()
+    libc.fflush(None)
+    try:
+        saved = os.dup(1)
+    except OSError:  # no descriptor 1 at all: nothing to keep clean
+        yield
+        return
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 1)
+        yield
+    finally:
+        libc.fflush(None)
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(null)
