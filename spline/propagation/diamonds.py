@@ -14,6 +14,7 @@ from functools import partial
 import numpy as np
 
 from ..net import NetLayout
+from ..tolerances import EXACT_DIAMOND_ULPS
 from ..topology import Triangulation, triangle_areas
 from ..util import ddouble, gather as _gather, memory as _memory, parallel as _parallel
 from ..util.ddouble import DD
@@ -50,12 +51,37 @@ def diamond_ids(tri: Triangulation, e: np.ndarray) -> tuple[np.ndarray, ...]:
     return ab[:, 0], ab[:, 1], ef[:, 0], ef[:, 1], eo[:, 0], eo[:, 1]
 
 
+def area_cancellation(p: np.ndarray, q: np.ndarray, r: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """``(n,)`` bound on the rounding of :func:`diamond_coefficients` in units of the last place: the
+    largest sum of the absolute products of its five signed areas over the normaliser
+    ``|area(p, r, s)| + |area(q, s, r)|`` (1-4 on nice triangles, the aspect ratio on a sliver)."""
+    def products(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+        u, v = b - a, c - a
+        return np.abs(u[:, 0] * v[:, 1]) + np.abs(u[:, 1] * v[:, 0])
+
+    worst = np.maximum.reduce([products(*t) for t in ((p, r, s), (q, r, s), (p, q, s), (p, r, q))])
+    norm = np.abs(triangle_areas(p, r, s)) + np.abs(triangle_areas(q, s, r))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return 0.5 * worst / norm
+
+
 def edge_coefficients(tri: Triangulation, ids: tuple[np.ndarray, ...], uv: np.ndarray | DD) -> np.ndarray | DD:
     """:func:`diamond_coefficients` ``(n, 4)`` of the interior edges whose :func:`diamond_ids` are ``ids``,
-    from the coordinates ``uv: (V, 2)`` (``tri.uv``, or its double-double copy)."""
+    from the coordinates ``uv: (V, 2)`` (``tri.uv``, or its double-double copy). In double, the
+    diamonds whose :func:`area_cancellation` exceeds
+    :data:`~trispline.spline.tolerances.EXACT_DIAMOND_ULPS` are computed in double-double and
+    rounded: their coefficients are then right to the last place, so the C1 conditions that the
+    build and the checks use are those of the triangles themselves."""
     a, b, f0, f1, k0, k1 = ids
     p, q = _gather.at(tri.faces, f0, k0), _gather.at(tri.faces, f1, k1)
-    return diamond_coefficients(*(ddouble.rows(uv, v) for v in (p, q, a, b)))
+    pts = [ddouble.rows(uv, v) for v in (p, q, a, b)]
+    c = diamond_coefficients(*pts)
+    if isinstance(uv, DD):
+        return c
+    bad = np.flatnonzero(~(area_cancellation(*pts) <= EXACT_DIAMOND_ULPS))
+    if bad.size:
+        c[bad] = ddouble.to_double(diamond_coefficients(*(DD(_gather.rows(x, bad)) for x in pts)))
+    return c
 
 
 def weak(c_mid: np.ndarray, c_q: np.ndarray, c_p: np.ndarray, inner_weight: float, tol: float) -> np.ndarray:

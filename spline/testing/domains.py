@@ -181,6 +181,18 @@ def slivers(n: int = 10, aspect: float = 200.0) -> tuple[np.ndarray, np.ndarray]
     return uv, orient_ccw(uv, faces)
 
 
+def slivered_hull(n: int, k: int, low: float, degrees: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Delaunay mesh of ``n`` random points in the unit square and ``k`` more at heights
+    ``10**low .. 10**(low + 2)`` above its bottom edge (hull slivers of aspect 1e3 .. 1e6, as random
+    scattered data make), turned by ``degrees``: oblique slivers, whose signed areas cancel in double."""
+    rng = np.random.default_rng(seed)
+    P = np.r_[rng.random((n, 2)), np.c_[rng.random(k), 10.0 ** rng.uniform(low, low + 2, k)]]
+    faces = Delaunay(P).simplices
+    t = np.radians(degrees)
+    uv = P @ np.array([[np.cos(t), np.sin(t)], [-np.sin(t), np.cos(t)]])
+    return uv, orient_ccw(uv, faces)
+
+
 def perturb(uv: np.ndarray, faces: np.ndarray, amount: float, seed: int = 0) -> np.ndarray:
     """Jitter interior vertices by ``amount`` times the local edge length, keeping faces CCW."""
     rng = np.random.default_rng(seed)

@@ -232,3 +232,62 @@ def test_building_on_the_triangulation_used_changes_nothing(eps):
     np.testing.assert_array_equal(again.singular_vertices, first.singular_vertices)
     for name in ("data", "indices", "indptr"):
         np.testing.assert_array_equal(getattr(again.M, name), getattr(first.M, name))
+
+
+def sampled_c1_of_a_quintic(uv: np.ndarray, faces: np.ndarray, seed: int) -> tuple[float, float]:
+    """``(sampled C1 jump over the RMS gradient, largest aspect)`` of a random global quintic's free
+    points propagated by ``M``: exactly C1 in exact arithmetic, so the jump is rounding."""
+    from trispline.param import face_aspects
+    from trispline.spline.patches import numeric_continuity
+
+    space = build_space(uv, faces)
+    poly = random_polynomial(5, 3, seed, centre=(0.0, 0.0))
+    _, pts = net_of(space, poly)
+    ctrl = space.control_points(space.free_from_points(pts))
+    jump = numeric_continuity(space.tri.uv, space.tri.faces, ctrl, 7)["c1_relative"]
+    return jump, float(face_aspects(space.tri.uv, space.tri.faces).max())
+
+
+#: Sampled C1 jump allowed: rounding (~1e-16) amplified by a sliver's 1/height (per unit of the largest
+#: aspect; measured at most 8e-15 where the slivers dominate) over a floor that the nearly collinear
+#: edges of such meshes leave at any aspect (measured up to 2.7e-11 at aspect 1.8e3).
+SLIVER_C1_PER_ASPECT = 1e-14
+SLIVER_C1_FLOOR = 1e-10
+
+
+def sliver_c1_bound(aspect: float) -> float:
+    return SLIVER_C1_PER_ASPECT * aspect + SLIVER_C1_FLOOR
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(20, 80), st.integers(4, 16), st.floats(-6.0, -3.0), st.floats(0.0, 90.0), st.integers(0, 10_000))
+def test_oblique_slivers_keep_c1_to_rounding(n, k, low, degrees, seed):
+    """Diamond coefficients of slivers are right to the last place (double-double where double's areas
+    cancel), so the surface is C1 to rounding times the aspect, whatever the slivers' direction."""
+    jump, aspect = sampled_c1_of_a_quintic(*domains.slivered_hull(n, k, low, degrees, seed), seed)
+    assert jump < sliver_c1_bound(aspect), (jump, aspect)
+
+
+def test_double_diamond_coefficients_lose_c1_on_oblique_slivers(monkeypatch):
+    """Negative control: with every diamond in double (the build before) the same mesh's jump is
+    hundreds of times the bound (8.6e-7 against 2.1e-10); with the guard it is within it."""
+    from trispline.spline.propagation import diamonds
+
+    case = domains.slivered_hull(60, 12, -5.0, 40.0, 3)
+    jump, aspect = sampled_c1_of_a_quintic(*case, 3)
+    assert jump < sliver_c1_bound(aspect)
+    monkeypatch.setattr(diamonds, "EXACT_DIAMOND_ULPS", np.inf)
+    jump_double, _ = sampled_c1_of_a_quintic(*case, 3)
+    assert jump_double > 100 * sliver_c1_bound(aspect), (jump_double, aspect)
+
+
+def test_area_cancellation_is_about_one_on_nice_diamonds_and_the_aspect_on_slivers():
+    from trispline.spline.propagation.diamonds import area_cancellation
+
+    p, q, r, s = (np.array([x]) for x in ([0.0, 1.0], [1.0, -1.0], [0.0, 0.0], [1.0, 0.0]))
+    assert area_cancellation(p, q, r, s)[0] <= 4.0
+    t = np.radians(40.0)
+    R = np.array([[np.cos(t), np.sin(t)], [-np.sin(t), np.cos(t)]])
+    h = 1e-5  # a diamond of two slivers of aspect ~1e5, turned off the axes
+    sliver = [x @ R for x in (np.array([[0.5, h]]), np.array([[0.5, -h]]), r, s)]
+    assert 1e4 < area_cancellation(*sliver)[0] < 1e6
