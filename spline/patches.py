@@ -16,11 +16,13 @@ every interior edge: the numeric half of the continuity verification.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
-from .util import gather as _gather, memory as _memory
+from .util import gather as _gather, memory as _memory, parallel as _parallel
 from .index import NCTRL
 from .bernstein import basis, basis_gradient_bary, de_casteljau_derivatives
 from .checks import as_array, check_ids
@@ -42,6 +44,8 @@ __all__ = [
 #: (large ones are fresh pages each time, which cost more than the arithmetic on a VM: 1M values
 #: 1.7 s at once, 0.5 s in chunks).
 CHUNK = 1 << 14
+#: Interior edges per range of :func:`numeric_continuity` (both sides, ``n_samples`` each: a few MB).
+CONTINUITY_CHUNK = 1 << 13
 
 
 def _chunks(n: int) -> list[slice]:
@@ -207,12 +211,14 @@ def edge_samples(tri: Triangulation, edges: np.ndarray, t: np.ndarray, *, side: 
 
 
 def numeric_continuity(
-    uv: np.ndarray, faces: np.ndarray, ctrl: np.ndarray, n_samples: int = 7
+    uv: np.ndarray, faces: np.ndarray, ctrl: np.ndarray, n_samples: int = 7,
+    report: Callable[[float], None] | None = None,
 ) -> dict:
     """Sample values and uv-gradients from both sides of every interior edge.
 
     At ``n_samples`` points evenly spaced along each interior edge (end points
-    included) the two adjacent patches are evaluated, each in its own face.
+    included) the two adjacent patches are evaluated, each in its own face: in ranges of
+    :data:`CONTINUITY_CHUNK` edges on a thread per core, ``report(fraction)`` as they finish.
 
     Returns
     -------
@@ -240,17 +246,15 @@ def numeric_continuity(
                     scale=scale, gradient_scale=0.0)
     t = np.linspace(0.0, 1.0, n_samples)
     ne = ie.size
-    results = []
-    for side in range(2):
-        f, bary = edge_samples(tri, ie, t, side=side)
-        r = evaluate_derivatives(tri.uv, tri.faces, ctrl, np.repeat(f, n_samples), bary.reshape(-1, 3))
-        results.append(r)
-    r0, r1 = results
-    c0 = np.linalg.norm(r0.values - r1.values, axis=1).reshape(ne, n_samples).max(1)
-    g0 = np.stack([r0.du, r0.dv], axis=-1)  # (m, d, 2)
-    g1 = np.stack([r1.du, r1.dv], axis=-1)
-    c1 = np.linalg.norm((g0 - g1).reshape(g0.shape[0], -1), axis=1).reshape(ne, n_samples).max(1)
-    gscale = float(np.sqrt(0.5 * (np.mean(np.sum(g0**2, axis=(1, 2))) + np.mean(np.sum(g1**2, axis=(1, 2))))))
+    c0, c1, squares = np.empty(ne), np.empty(ne), np.zeros(2)
+    jumps = partial(_edge_jumps, tri, ctrl, ie, t, c0, c1)
+    with _parallel.Workers(ne, parallel_min=2 * CONTINUITY_CHUNK) as work:
+        handles = work.start(jumps, ne, CONTINUITY_CHUNK)
+        for k, h in enumerate(handles):
+            squares += h.result()
+            if report is not None:
+                report((k + 1) / len(handles))
+    gscale = float(np.sqrt(0.5 * squares.sum() / (ne * n_samples)))
     tiny = np.finfo(float).tiny
     return dict(
         c0_max=float(c0.max()),
@@ -263,3 +267,20 @@ def numeric_continuity(
         scale=scale,
         gradient_scale=gscale,
     )
+
+
+def _edge_jumps(tri: Triangulation, ctrl: np.ndarray, ie: np.ndarray, t: np.ndarray, c0: np.ndarray,
+                c1: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """:func:`numeric_continuity` for the interior edges ``ie[lo:hi]``: their largest value and gradient
+    jumps into ``c0``, ``c1`` ``(E_int,)``; returns the two sides' sums of squared gradient norms ``(2,)``."""
+    n, rows = t.size, slice(lo, hi)
+    sides = []
+    for side in range(2):
+        f, bary = edge_samples(tri, ie[rows], t, side=side)
+        sides.append(evaluate_derivatives(tri.uv, tri.faces, ctrl, np.repeat(f, n), bary.reshape(-1, 3)))
+    r0, r1 = sides
+    c0[rows] = np.linalg.norm(r0.values - r1.values, axis=1).reshape(-1, n).max(1)
+    g0 = np.stack([r0.du, r0.dv], axis=-1)  # (m, d, 2)
+    g1 = np.stack([r1.du, r1.dv], axis=-1)
+    c1[rows] = np.linalg.norm((g0 - g1).reshape(g0.shape[0], -1), axis=1).reshape(-1, n).max(1)
+    return np.array([np.sum(g0**2), np.sum(g1**2)])

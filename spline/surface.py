@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
 from types import MappingProxyType
@@ -119,9 +120,9 @@ class SplineSurface:
         """Watertight triangle mesh with analytic unit normals; see :func:`tessellate`."""
         return tessellate(self.uv, self.faces, self.ctrl, resolution, triangulation=self.triangulation)
 
-    def continuity(self, n_samples: int = 7) -> dict:
+    def continuity(self, n_samples: int = 7, report: Callable[[float], None] | None = None) -> dict:
         """Numeric value and gradient jumps across interior edges; see :func:`numeric_continuity`."""
-        return numeric_continuity(self.uv, self.faces, self.ctrl, n_samples)
+        return numeric_continuity(self.uv, self.faces, self.ctrl, n_samples, report)
 
     # ------------------------------------------------------------------ I/O
     def save(self, path: str | os.PathLike) -> None:

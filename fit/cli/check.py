@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -34,7 +35,8 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(func=cmd_check)
 
 
-def surface_report(surface: Any, *, tolerance: float = CHECK_TOLERANCE, samples: int = 7) -> dict:
+def surface_report(surface: Any, *, tolerance: float = CHECK_TOLERANCE, samples: int = 7,
+                   progress: Callable[[float], None] | None = None) -> dict:
     """Continuity residuals and statistics of a surface (the body of ``check``).
 
     The residuals are measured on the net moved to its bounding box's centre (exactly the same
@@ -43,7 +45,8 @@ def surface_report(surface: Any, *, tolerance: float = CHECK_TOLERANCE, samples:
     at 1e6 m keeps about 1e-10 of its extent, a millimetre at 1e9 only 1e-4. ``precision_floor``
     holds the residuals that this rounding alone makes (measured on a random perturbation of
     half an ulp per coordinate); a residual passes when it is within ``tolerance`` plus
-    :data:`PRECISION_MARGIN` times its floor.
+    :data:`PRECISION_MARGIN` times its floor. ``progress(fraction)``: as the sampled pass's edge
+    ranges finish.
     """
     from trispline.spline.continuity import continuity_report
     from trispline.spline.surface import SplineSurface
@@ -54,7 +57,7 @@ def surface_report(surface: Any, *, tolerance: float = CHECK_TOLERANCE, samples:
     centre = 0.5 * (pts.min(0) + pts.max(0)) if pts.size else np.zeros(3)
     centred = SplineSurface(surface.uv, surface.faces, ctrl - centre)
     alg = continuity_report(tri, ctrl - centre)
-    num = {k: v for k, v in centred.continuity(samples).items() if not isinstance(v, np.ndarray)}
+    num = {k: v for k, v in centred.continuity(samples, progress).items() if not isinstance(v, np.ndarray)}
     corners = _corner_points(tri, ctrl)
     report: dict[str, Any] = dict(
         patches=tri.n_faces, vertices=tri.n_vertices, edges=tri.n_edges,
@@ -183,7 +186,8 @@ def cmd_check(args: argparse.Namespace, ui: UI) -> int:
     """Body of ``trispline check``: exit 3 when a relative residual exceeds ``--tolerance``."""
     surface = load_surface(args.surface)
     with ui.stages(("residuals",), "check") as bar:
-        report = surface_report(surface, tolerance=args.tolerance, samples=max(args.samples, 2))
+        report = surface_report(surface, tolerance=args.tolerance, samples=max(args.samples, 2),
+                                progress=lambda f: bar.at("residuals", 0.9 * f))
         bar.done()
     data = dict(command="check", file=args.surface, **report)
     ui.result(data, _check_text)

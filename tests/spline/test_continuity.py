@@ -64,3 +64,22 @@ def test_a_c1_net_reports_zero_and_a_broken_one_does_not():
     f = next(f for f in range(tri.n_faces) if tuple(sorted(tri.faces[f, 1:].tolist())) in interior)
     ctrl[f, local_index({0: 1, 1: 2, 2: 2})] += 1e-3  # a point of the C1 conditions of an interior edge
     assert continuity_report(tri, ctrl)["c1_relative"] > 1e-6
+
+
+def test_sampled_continuity_in_edge_ranges_equals_one_range_and_reports_each(monkeypatch):
+    """The sampled check runs in edge ranges on threads: per-edge jumps bit for bit those of one range,
+    the gradient scale to rounding, and ``report`` rises to 1 once per range."""
+    from trispline.spline import patches
+
+    uv, faces = domains.random_delaunay(400, holes=1, seed=3)
+    space = build_space(uv, faces)
+    ctrl = space.control_points(np.random.default_rng(2).normal(size=(space.n_free, 3)))
+    whole = patches.numeric_continuity(space.tri.uv, space.tri.faces, ctrl, 5)
+    monkeypatch.setattr(patches, "CONTINUITY_CHUNK", 64)
+    seen: list[float] = []
+    ranged = patches.numeric_continuity(space.tri.uv, space.tri.faces, ctrl, 5, seen.append)
+    np.testing.assert_array_equal(ranged["c0_per_edge"], whole["c0_per_edge"])
+    np.testing.assert_array_equal(ranged["c1_per_edge"], whole["c1_per_edge"])
+    np.testing.assert_allclose(ranged["gradient_scale"], whole["gradient_scale"], rtol=1e-13)
+    assert len(seen) == -(-space.tri.interior_edges.size // 64) and seen == sorted(seen) and seen[-1] == 1.0
+    assert whole["c1_relative"] < 1e-12  # a C1 net: the jumps are rounding
