@@ -669,6 +669,8 @@ def test_a_strip_of_nearly_zero_width_is_bad_input(tmp_path, capfd, mode, match)
     r = cli(capfd, "fit", path, "-o", tmp_path / "s.npz", "-q", *mode)
     assert_cli_error(r, match)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["strip.obj"]
+    os.write(1, b"after\n")  # descriptor 1 is the process's own again
+    assert capfd.readouterr().out == "after\n"
 
 
 @pytest.mark.filterwarnings("error")

@@ -13,6 +13,7 @@ import functools
 import importlib.util
 import os
 import sys
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -102,25 +103,32 @@ def solve_spd(A: sp.spmatrix, b: np.ndarray, *, backend: str | None = None,
     return x
 
 
+#: One redirection of descriptor 1 at a time: two overlapping ones would restore each other's null device.
+_STDOUT_LOCK = threading.Lock()
+
+
 @contextmanager
 def _c_stdout_silenced() -> Iterator[None]:
     """File descriptor 1 onto the null device while C code runs (C's buffers flushed on both sides), so
     that a library's ``printf`` cannot add a stray line to the command line's one message."""
     libc = ctypes.CDLL(None)
-    if sys.stdout is not None:
-        sys.stdout.flush()
-    libc.fflush(None)
-    try:
-        saved = os.dup(1)
-    except OSError:  # no descriptor 1 at all: nothing to keep clean
-        yield
-        return
-    null = os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(null, 1)
-        yield
-    finally:
+    with _STDOUT_LOCK:
+        if sys.stdout is not None:
+            sys.stdout.flush()
         libc.fflush(None)
-        os.dup2(saved, 1)
-        os.close(saved)
-        os.close(null)
+        try:
+            saved = os.dup(1)
+        except OSError:  # no descriptor 1 at all: nothing to keep clean
+            saved = None
+        if saved is None:
+            yield
+            return
+        null = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(null, 1)
+            yield
+        finally:
+            libc.fflush(None)
+            os.dup2(saved, 1)
+            os.close(saved)
+            os.close(null)
