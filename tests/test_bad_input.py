@@ -710,6 +710,69 @@ def test_terminated_is_one_line_and_exit_143(capsys):
     assert capsys.readouterr().err.strip() == "trispline: terminated"
 
 
+class _InterruptOnCollect:
+    """Sends SIGINT from its ``__del__``: Python runs the handler there and swallows its KeyboardInterrupt,
+    as it did in JAX's garbage-collector callback (the fit then finished: exit 0 and a traceback)."""
+
+    def __del__(self) -> None:
+        os.kill(os.getpid(), signal.SIGINT)
+        for _ in range(1000):  # the handler runs at the next check of the eval loop, still in here
+            pass
+
+
+def test_an_interrupt_swallowed_by_a_finalizer_still_ends_the_command(tmp_path, capsys):
+    """Ctrl-C that lands where Python swallows exceptions is raised again at the next progress report:
+    exit 130, one line, no output, and no 'Exception ignored' report."""
+    from trispline.fit.cli import common
+
+    def make_parser():
+        parser = common.Parser(prog="trispline")
+
+        def command(args, ui):
+            with ui.stages(("one", "two"), "test") as bar:
+                _InterruptOnCollect()  # collected at once: the interrupt is swallowed in __del__
+                assert common.Interrupts.pending
+                bar.done()  # the next report raises it
+                (tmp_path / "out.txt").write_text("should not be reached")
+            return 0
+
+        parser.set_defaults(func=command)
+        return parser
+
+    capsys.readouterr()
+    assert common.run_cli(make_parser, []) == 130
+    err = capsys.readouterr().err
+    assert err.strip() == "trispline: interrupted" and "Exception ignored" not in err
+    assert not (tmp_path / "out.txt").exists()
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # handed back
+
+
+def test_an_interrupt_swallowed_after_the_last_report_ends_the_command_too(capsys):
+    from trispline.fit.cli import common
+
+    def make_parser():
+        parser = common.Parser(prog="trispline")
+        parser.set_defaults(func=lambda args, ui: (_InterruptOnCollect(), 0)[1])
+        return parser
+
+    capsys.readouterr()
+    assert common.run_cli(make_parser, []) == 130
+    assert capsys.readouterr().err.strip() == "trispline: interrupted"
+
+
+def test_a_bar_drawn_by_its_ticker_is_cleared_before_an_interrupts_line(capfd):
+    """The bar's elapsed-time redraws are the ticker's; tqdm clears on close only bars its own updates
+    drew, so an interrupt's message used to continue the bar's line."""
+    from trispline.fit.cli.common import Stages
+
+    with pytest.raises(KeyboardInterrupt):
+        with Stages(("start JAX", "fit"), "fit", disable=False):
+            time.sleep(Stages.TICK + 1.2)  # past tqdm's delay of 1 s and one tick
+            raise KeyboardInterrupt
+    err = capfd.readouterr().err
+    assert "start JAX" in err and err.endswith("\r")  # drawn, then blanked back to the line's start
+
+
 @pytest.mark.parametrize("case", ["float faces", "complex V", "object V", "object F", "string V", "NaN V"])
 def test_fit_api_wrong_dtypes(case):
     jax = pytest.importorskip("jax")
