@@ -827,3 +827,22 @@ def test_repaired_folds_fit_without_spikes():
     assert max_h(V, F) > 20 * clean
     r = repair_mesh(V, F)
     assert max_h(r.V, r.F) <= 1.01 * clean
+
+
+def test_an_interrupt_a_library_turns_into_its_own_error_is_still_an_interrupt(capsys):
+    """A KeyboardInterrupt raised inside a library's callback can come back as that library's error
+    (exit 1 'internal error' before); with the interrupt remembered it ends as one: exit 130."""
+    from trispline.fit.cli import common
+
+    def command(args, ui):
+        _InterruptOnCollect()  # swallowed; the library then fails for it
+        raise RuntimeError("callback failed")
+
+    def make_parser():
+        parser = common.Parser(prog="trispline")
+        parser.set_defaults(func=command)
+        return parser
+
+    capsys.readouterr()
+    assert common.run_cli(make_parser, []) == 130
+    assert capsys.readouterr().err.strip() == "trispline: interrupted"

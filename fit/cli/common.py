@@ -374,6 +374,9 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
         print(f"{PROG}: error: {one_line(str(exc))}", file=sys.stderr)
         return EXIT_INPUT if isinstance(exc, InputError) else EXIT_FAILURE
     except Exception as exc:  # noqa: BLE001 - the CLI's last line of defence
+        if Interrupts.pending and not debug:  # an interrupt that a library turned into its own error
+            print(f"{PROG}: interrupted", file=sys.stderr)
+            return EXIT_INTERRUPTED
         if debug:
             traceback.print_exc()
         hint = "" if debug else " (run with --debug for the traceback)"
