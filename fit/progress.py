@@ -2,9 +2,10 @@
 
 A long stage's work functions take a ``report(fraction)`` callable (:data:`Report`) and
 call it from the calling thread as their chunks complete; :func:`span` maps a piece of
-a stage onto its share of the stage, :func:`map_reporting` runs chunks on a thread per
-core in batches and reports after each batch. :func:`stage_reporter` turns the fit's
-``progress(stage, seconds, fraction)`` callback into the stage's ``report``.
+a stage onto its share of the stage, :func:`map_reporting` (from
+:mod:`trispline.spline.util.parallel`) runs chunks on a thread per core and reports as they
+finish. :func:`stage_reporter` turns the fit's ``progress(stage, seconds, fraction)`` callback
+into the stage's ``report``.
 """
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import inspect
 import time
 from typing import Any, Callable
 
-from trispline.spline.util.parallel import Workers, ranges
+from trispline.spline.util.parallel import map_reporting  # re-exported: the fit's stages report through it
 
 __all__ = ["Report", "silent", "span", "map_reporting", "accepts_fraction", "stage_reporter", "counting"]
 
@@ -29,22 +30,6 @@ def span(report: Report | None, lo: float, hi: float) -> Report:
     if report is None or report is silent:
         return silent
     return lambda fraction: report(lo + (hi - lo) * min(max(fraction, 0.0), 1.0))
-
-
-def map_reporting(work: Workers, fn: Callable[[int, int], Any], n: int, chunk: int,
-                  report: Report | None = None) -> list[Any]:
-    """``work.map(fn, n, chunk)``, ``report(done / n)`` as the ranges finish in order.
-
-    Every range is queued at once, so a thread never waits for the other's last range of a batch
-    (waiting for batches of two ranges per thread left ~1.3 core-seconds idle in a 100k-face fit's
-    assembly); the pool runs a range per thread at a time, so no more temporaries are alive."""
-    report = report or silent
-    parts = ranges(n, chunk)
-    out: list[Any] = []
-    for (_, hi), job in zip(parts, work.start(fn, n, chunk)):
-        out.append(job.result())
-        report(hi / max(n, 1))
-    return out
 
 
 def accepts_fraction(progress: Callable[..., Any]) -> bool:

@@ -246,15 +246,11 @@ def numeric_continuity(
                     scale=scale, gradient_scale=0.0)
     t = np.linspace(0.0, 1.0, n_samples)
     ne = ie.size
-    c0, c1, squares = np.empty(ne), np.empty(ne), np.zeros(2)
+    c0, c1 = np.empty(ne), np.empty(ne)
     jumps = partial(_edge_jumps, tri, ctrl, ie, t, c0, c1)
     with _parallel.Workers(ne, parallel_min=2 * CONTINUITY_CHUNK) as work:
-        handles = work.start(jumps, ne, CONTINUITY_CHUNK)
-        for k, h in enumerate(handles):
-            squares += h.result()
-            if report is not None:
-                report((k + 1) / len(handles))
-    gscale = float(np.sqrt(0.5 * squares.sum() / (ne * n_samples)))
+        squares = _parallel.map_reporting(work, jumps, ne, CONTINUITY_CHUNK, report)
+    gscale = float(np.sqrt(0.5 * np.sum(squares) / (ne * n_samples)))
     tiny = np.finfo(float).tiny
     return dict(
         c0_max=float(c0.max()),

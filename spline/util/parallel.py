@@ -95,6 +95,21 @@ class Workers:
             self._blas.__exit__(None, None, None)
 
 
+def map_reporting(work: Workers, fn: Callable[[int, int], Any], n: int, chunk: int | None,
+                  report: Callable[[float], None] | None = None) -> list[Any]:
+    """``work.map(fn, n, chunk)``, ``report(done / n)`` (when given) as the ranges finish in order.
+
+    Every range is queued at once, so a thread never waits for the other's last range of a batch
+    (waiting for batches of two ranges per thread left ~1.3 core-seconds idle in a 100k-face fit's
+    assembly); the pool runs a range per thread at a time, so no more temporaries are alive."""
+    out: list[Any] = []
+    for (_, hi), job in zip(ranges(n, chunk), work.start(fn, n, chunk)):
+        out.append(job.result())
+        if report is not None:
+            report(hi / max(n, 1))
+    return out
+
+
 _blas_lock = threading.Lock()
 _blas_state: dict = {"limiter": None, "users": 0, "controller": None, "modules": -1}
 
