@@ -720,7 +720,7 @@ class _InterruptOnCollect:
             pass
 
 
-def test_an_interrupt_swallowed_by_a_finalizer_still_ends_the_command(tmp_path, capsys):
+def test_an_interrupt_swallowed_by_a_finalizer_still_ends_the_command(tmp_path, capsys, interruptible):
     """Ctrl-C that lands where Python swallows exceptions is raised again at the next progress report:
     exit 130, one line, no output, and no 'Exception ignored' report."""
     from trispline.fit.cli import common
@@ -747,7 +747,7 @@ def test_an_interrupt_swallowed_by_a_finalizer_still_ends_the_command(tmp_path, 
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # handed back
 
 
-def test_an_interrupt_swallowed_after_the_last_report_ends_the_command_too(capsys):
+def test_an_interrupt_swallowed_after_the_last_report_ends_the_command_too(capsys, interruptible):
     from trispline.fit.cli import common
 
     def make_parser():
@@ -829,7 +829,7 @@ def test_repaired_folds_fit_without_spikes():
     assert max_h(r.V, r.F) <= 1.01 * clean
 
 
-def test_an_interrupt_a_library_turns_into_its_own_error_is_still_an_interrupt(capsys):
+def test_an_interrupt_a_library_turns_into_its_own_error_is_still_an_interrupt(capsys, interruptible):
     """A KeyboardInterrupt raised inside a library's callback can come back as that library's error
     (exit 1 'internal error' before); with the interrupt remembered it ends as one: exit 130."""
     from trispline.fit.cli import common
