@@ -10,12 +10,17 @@ into the stage's ``report``.
 from __future__ import annotations
 
 import inspect
+import threading
 import time
 from typing import Any, Callable
 
 from trispline.spline.util.parallel import map_reporting  # re-exported: the fit's stages report through it
 
-__all__ = ["Report", "silent", "span", "map_reporting", "accepts_fraction", "stage_reporter", "counting"]
+__all__ = ["Report", "silent", "span", "map_reporting", "accepts_fraction", "stage_reporter", "counting",
+           "watching", "WATCH_INTERVAL"]
+
+#: Seconds between two looks at a long library call's progress (:func:`watching`).
+WATCH_INTERVAL = 0.1
 
 #: ``report(fraction)``: ``fraction`` in [0, 1] of the current piece of work is done.
 Report = Callable[[float], None]
@@ -62,3 +67,39 @@ def counting(report: Report | None, parts: int) -> Callable[[], None]:
         done[0] += 1
         report(min(done[0] / parts, 1.0))
     return tick
+
+
+def watching(work: Callable[[], Any], done: Callable[[], float], report: Report | None) -> Any:
+    """``work()``, run in a thread while this one reports ``done()`` (a fraction) every
+    :data:`WATCH_INTERVAL` seconds: for one long library call that releases the GIL and reports nothing
+    itself (PARDISO's numerical factorisation), whose progress can be read from outside it.
+
+    The reports come from the calling thread, never decrease, and stay below 1 until ``work`` ends;
+    ``work``'s exception is re-raised here. The calling thread stays responsive: an interrupt (Ctrl-C)
+    ends the wait at once, leaving ``work`` to finish in its daemon thread.
+    """
+    if report is None or report is silent:
+        return work()
+    result: list[Any] = []
+    error: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            result.append(work())
+        except BaseException as exc:  # noqa: BLE001 - re-raised in the calling thread
+            error.append(exc)
+
+    thread = threading.Thread(target=run, name="trispline-watched", daemon=True)
+    thread.start()
+    shown = 0.0
+    while True:
+        thread.join(WATCH_INTERVAL)
+        if not thread.is_alive():
+            break
+        fraction = min(max(done(), shown), 0.99)
+        if fraction > shown:
+            shown = fraction
+            report(fraction)
+    if error:
+        raise error[0]
+    return result[0]

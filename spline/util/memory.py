@@ -33,6 +33,36 @@ def available_memory() -> int | None:
         return None
 
 
+def thread_page_faults(tids: set[int], prefixes: tuple[str, ...] = ()) -> int | None:
+    """Pages first touched so far (minor page faults, ``/proc/self/task/*/stat``) by this process's
+    threads ``tids`` and those whose name starts with one of ``prefixes``; None where unknown.
+
+    Cheap (one small read a thread): fit for polling while a library call writes a large array on its
+    own threads, whose count of pages touched is how far the call has got, whatever other threads
+    allocate meanwhile (see :meth:`trispline.fit.solve.SparseCholesky.factorize`).
+    """
+    total = 0
+    try:
+        names = os.listdir("/proc/self/task")
+    except OSError:  # pragma: no cover - not Linux
+        return None
+    for name in names:
+        try:
+            with open(f"/proc/self/task/{name}/stat") as fh:
+                stat = fh.read()
+        except OSError:  # the thread ended meanwhile
+            continue
+        comm, rest = stat[stat.index("(") + 1: stat.rindex(")")], stat[stat.rindex(")") + 2:].split()
+        if int(name) in tids or comm.startswith(prefixes):
+            total += int(rest[7])  # minflt: the 10th field, the 8th after the name
+    return total
+
+
+def page_size() -> int:
+    """Bytes of a memory page."""
+    return int(os.sysconf("SC_PAGE_SIZE"))
+
+
 def format_bytes(n: float) -> str:
     """``"1.2 GB"`` style (decimal units)."""
     for unit in ("bytes", "kB", "MB", "GB", "TB"):
