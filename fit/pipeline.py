@@ -97,15 +97,16 @@ def _check_mesh(V, F) -> tuple[np.ndarray, np.ndarray]:
     return V, as_array(F_in, "F", (None, 3), integer=True)
 
 
-def _domain(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray, np.ndarray, Any]:
-    """``(uv (nv, 2), faces (nf, 3), parameterization or None)``."""
+def _domain(V: np.ndarray, F: np.ndarray, uv, param: str, report: Callable[[float], None] | None = None
+            ) -> tuple[np.ndarray, np.ndarray, Any]:
+    """``(uv (nv, 2), faces (nf, 3), parameterization or None)``; ``report``: the map's progress."""
     if uv is not None:
         uv = as_array(uv, "uv", (V.shape[0], 2))
         faces = F[:, [0, 2, 1]] if (signed_areas(uv, F) < 0).all() else F
         return uv, faces, None
     from trispline.param import parameterize
 
-    p = parameterize(V, F, method=param)
+    p = parameterize(V, F, method=param, report=report)
     return p.uv, p.faces, p
 
 
@@ -157,7 +158,7 @@ def fit_surface(
         raise InputError(f"weights must be a FitWeights, got {type(weights).__name__}")
     clock = StageTimer(progress)
     V, F = _check_mesh(V, F)
-    uv, faces, parameterization = _domain(V, F, uv, param)
+    uv, faces, parameterization = _domain(V, F, uv, param, stage_reporter(progress, PARAMETERIZE))
     refuse_slivers(uv, faces)  # thin triangles make the normal matrix indefinite
     clock(PARAMETERIZE)
     tri = Triangulation(uv, faces)

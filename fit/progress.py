@@ -15,26 +15,13 @@ import time
 from typing import Any, Callable
 
 from trispline.spline.util.parallel import map_reporting  # re-exported: the fit's stages report through it
+from trispline.spline.util.progress import Report, silent, span  # re-exported likewise
 
 __all__ = ["Report", "silent", "span", "map_reporting", "accepts_fraction", "stage_reporter", "counting",
            "watching", "WATCH_INTERVAL"]
 
 #: Seconds between two looks at a long library call's progress (:func:`watching`).
 WATCH_INTERVAL = 0.1
-
-#: ``report(fraction)``: ``fraction`` in [0, 1] of the current piece of work is done.
-Report = Callable[[float], None]
-
-
-def silent(fraction: float) -> None:
-    """A :data:`Report` that reports nothing."""
-
-
-def span(report: Report | None, lo: float, hi: float) -> Report:
-    """The :data:`Report` of a piece of work that is the share ``[lo, hi]`` of ``report``'s."""
-    if report is None or report is silent:
-        return silent
-    return lambda fraction: report(lo + (hi - lo) * min(max(fraction, 0.0), 1.0))
 
 
 def accepts_fraction(progress: Callable[..., Any]) -> bool:

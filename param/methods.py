@@ -25,6 +25,7 @@ from trispline.spline.checks import as_array
 from trispline.spline.errors import InputError, first_few
 from trispline.spline.tolerances import SLIM_RTOL
 from trispline.spline.topology import signed_areas
+from trispline.spline.util.progress import Report, silent
 from trispline.spline.util.spd import solve_spd
 
 from . import _igl
@@ -82,13 +83,17 @@ def lscm_uv(vm: ValidatedMesh, pins: np.ndarray, at: np.ndarray, *, backend: str
     return x.reshape(2, nv).T.copy()
 
 
-def slim_uv(vm: ValidatedMesh, *, max_iterations: int = SLIM_MAX_ITERATIONS) -> np.ndarray:
+def slim_uv(vm: ValidatedMesh, *, max_iterations: int = SLIM_MAX_ITERATIONS, report: Report | None = None
+            ) -> np.ndarray:
     """SLIM map ``(nv, 2)`` of a validated mesh: Tutte start, conformal energy, free boundary.
 
     The holes stay filled by their fans during the iterations (so they cannot overlap);
     the start is scaled to the 3D area (SLIM's steps are scale-aware). Stops after
     ``max_iterations`` or when an iteration lowers the energy by less than ``SLIM_RTOL``.
+    ``report``: progress after each iteration (a share of ``max_iterations``; at 200k faces an
+    iteration takes about half a second).
     """
+    report = report or silent
     V, F = vm.V, vm.F
     nv = V.shape[0]
     outer = vm.boundary_loops[0]
@@ -98,8 +103,9 @@ def slim_uv(vm: ValidatedMesh, *, max_iterations: int = SLIM_MAX_ITERATIONS) -> 
     data = _igl.slim_start(Vx, Fx, start)
     energy = conformal_energy(V, F, start[:nv])  # the mesh's own faces, not the fans
     uv = start
-    for _ in range(max_iterations):
+    for k in range(max_iterations):
         uv = _igl.slim_iterate(data, 1)
+        report((k + 1) / max_iterations)
         e = conformal_energy(V, F, uv[:nv])
         if not np.isfinite(e) or energy - e <= SLIM_RTOL * energy:
             break
@@ -121,8 +127,10 @@ def _given_uv(vm: ValidatedMesh, uv: np.ndarray | None) -> np.ndarray:
     return uv.copy()
 
 
-def raw_map(vm: ValidatedMesh, method: str, uv: np.ndarray | None = None) -> np.ndarray:
-    """The map ``(nv, 2)`` of ``method`` (one of :data:`MAPS`) before any check or repair."""
+def raw_map(vm: ValidatedMesh, method: str, uv: np.ndarray | None = None, report: Report | None = None
+            ) -> np.ndarray:
+    """The map ``(nv, 2)`` of ``method`` (one of :data:`MAPS`) before any check or repair; ``report``:
+    progress (SLIM's iterations; the others are one sparse solve each)."""
     V, F = vm.V, vm.F
     if method == "harmonic":
         Vx, Fx = fill_holes(V, F, vm.boundary_loops[1:])
@@ -132,5 +140,5 @@ def raw_map(vm: ValidatedMesh, method: str, uv: np.ndarray | None = None) -> np.
         d = float(np.linalg.norm(V[i] - V[j]))
         return lscm_uv(vm, np.array([i, j]), np.array([[0.0, 0.0], [d, 0.0]]))
     if method == "slim":
-        return slim_uv(vm)
+        return slim_uv(vm, report=report)
     return _given_uv(vm, uv)

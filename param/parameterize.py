@@ -18,6 +18,7 @@ import numpy as np
 from trispline.spline.errors import first_few
 from trispline.spline.tolerances import ANGLE_DISTORTION_WARN
 from trispline.spline.topology import signed_areas
+from trispline.spline.util.progress import Report, silent, span
 
 from .distortion import face_distortion, fold_mask, score, summarize, warning
 from .domain import UVTransform, normalise
@@ -118,6 +119,7 @@ def parameterize(
     uv: np.ndarray | None = None,
     repair: bool = True,
     smooth: bool = DEFAULT_SMOOTH,
+    report: Report | None = None,
 ) -> Parameterization:
     """Map an open genus-0 mesh to a fold-free planar triangulation.
 
@@ -148,6 +150,9 @@ def parameterize(
         the discrete map's vertex-to-vertex irregularity (:mod:`trispline.param.smooth`); the
         result is checked for folds and falls back to the map itself. Not for ``method="uv"``
         (the given coordinates are kept as they are). Default :data:`DEFAULT_SMOOTH`.
+    report : ``report(fraction)``, optional
+        Progress as the steps end (the map, its smoothing, a repair; SLIM after each iteration):
+        at 200k faces a folded LSCM map takes ~25 s to replace.
 
     Raises
     ------
@@ -161,16 +166,22 @@ def parameterize(
     if uv is not None and method != "uv":
         raise MeshError(f"uv was given but method is {method!r}; use method='uv'", ["method"])
     vm = validate_mesh(V, F)
-    if method == "auto":
-        return _auto(vm, repair, smooth)
-    return _single(vm, method, uv, repair, smooth)
+    report = report or silent
+    p = _auto(vm, repair, smooth, report) if method == "auto" else _single(vm, method, uv, repair, smooth, report)
+    report(1.0)
+    return p
+
+
+#: Shares of :func:`_single`'s progress: the map, then its smoothing, then a repair, then the checks.
+_MAP_DONE, _SMOOTH_DONE, _REPAIR_DONE = 0.3, 0.45, 0.95
 
 
 def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
-            smooth: bool = DEFAULT_SMOOTH) -> Parameterization:
+            smooth: bool = DEFAULT_SMOOTH, report: Report = silent) -> Parameterization:
     """:func:`parameterize` with one map of :data:`~trispline.param.methods.MAPS`."""
     messages = list(vm.messages)
-    raw = raw_map(vm, method, uv)
+    raw = raw_map(vm, method, uv, span(report, 0.0, _MAP_DONE))
+    report(_MAP_DONE)
     source_uv = raw.copy() if method == "uv" else None
     if not np.isfinite(raw).all():
         bad = np.flatnonzero(~np.isfinite(raw).all(1))
@@ -183,9 +194,12 @@ def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
     smoothing: dict = {}
     if smooth and method != "uv":  # first: a smooth map often has none of the raw map's few folds
         raw, smoothing = _smoothed(vm, raw, method, messages)
-    raw, repaired, folds = _unfold(vm, raw, method, uv is None, repair, messages)
+    report(_SMOOTH_DONE)
+    raw, repaired, folds = _unfold(vm, raw, method, uv is None, repair, messages,
+                                   span(report, _SMOOTH_DONE, _REPAIR_DONE))
     if smooth and repaired in ("harmonic", "slim"):  # a map that replaced a worse repair
         raw, smoothing = _smoothed(vm, raw, repaired, messages)
+    report(_REPAIR_DONE)
     uvn, centre, scale = normalise(raw)
     _refuse_folds(uvn, vm.F, method, repaired)
     boundary = max(vm.boundary_loops, key=lambda l: abs(polygon_area(uvn[l])))
@@ -219,15 +233,16 @@ def _good(p: Parameterization) -> bool:
     return _folds(p) == 0 and p.distortion["score"] <= ANGLE_DISTORTION_WARN
 
 
-def _auto(vm: ValidatedMesh, repair: bool, smooth: bool) -> Parameterization:
+def _auto(vm: ValidatedMesh, repair: bool, smooth: bool, report: Report = silent) -> Parameterization:
     """``method="auto"``: LSCM when it is good, else the least distorted map, fold-free first."""
     tried: dict[str, Parameterization] = {}
     failed: dict[str, str] = {}
-    for name in AUTO_ORDER:
+    for k, name in enumerate(AUTO_ORDER):
         if tried.get(AUTO_ORDER[0]) is not None and _good(tried[AUTO_ORDER[0]]):
             break
         try:
-            tried[name] = _single(vm, name, None, repair, smooth)
+            tried[name] = _single(vm, name, None, repair, smooth,
+                                  span(report, k / len(AUTO_ORDER), (k + 1) / len(AUTO_ORDER)))
         except MeshError as exc:
             failed[name] = str(exc).splitlines()[0]
     if not tried:
@@ -257,9 +272,19 @@ def _verdict(p: Parameterization) -> str:
 
 
 def _unfold(vm: ValidatedMesh, raw: np.ndarray, method: str, no_uv: bool, repair: bool,
-            messages: list[str]) -> tuple[np.ndarray, str | None, tuple[int, int]]:
+            messages: list[str], report: Report = silent) -> tuple[np.ndarray, str | None, tuple[int, int]]:
     """``(map, repair name or None, (flipped, degenerate) counts)``: ``raw`` itself when it does
-    not fold, else its repair (reported in ``messages``); raises when folded and not ``repair``."""
+    not fold, else its replacement (reported in ``messages``); raises when folded and not ``repair``.
+
+    A folded free-boundary map (``lscm``, ``slim``) gives way to the least sheared (lowest score) of the
+    fold-free harmonic and SLIM maps (:func:`_global_alternative`); the repair that keeps the map's outline
+    (:func:`~trispline.param.repair.repair_folds`: libigl's composite harmonic map) only where neither is
+    fold-free. Its outline is worth keeping where the user gave it (``uv``); a free boundary's is not,
+    and the repair was the more sheared on every mesh measured whose LSCM map folds (score: halftunnel
+    9.8 against SLIM's 2.3; Enneper at 200 / 800 vertices 220 / 7e8 against the harmonic map's 1.1; the
+    200k-face scan of ``bench_fit_speed.py`` against SLIM's 5e3), and the slowest (that scan: 33 s of the
+    map's 55 s).
+    """
     flipped, degen = fold_mask(raw, vm.F)
     n_flip, n_deg = int(flipped.sum()), int(degen.sum())
     if not (n_flip or n_deg):
@@ -270,37 +295,35 @@ def _unfold(vm: ValidatedMesh, raw: np.ndarray, method: str, no_uv: bool, repair
     if not repair:
         raise MeshError(f"the {method} parameterization folds {n_flip + n_deg} triangles: {what}; "
                         f"enable repair or choose another method{hint}", ["folded"])
-    raw, repaired = repair_folds(vm, raw, method)
-    raw, repaired = _better_than_repair(vm, raw, repaired, method)
+    alt = _global_alternative(vm, method, span(report, 0.0, 0.9)) if method in ("lscm", "slim") else None
+    raw, repaired = (alt[0], alt[1]) if alt is not None else repair_folds(vm, raw, method)
     messages.append(f"the {method} map had {what}; repaired with a {repaired} map{hint}")
     return raw, repaired, (n_flip, n_deg)
 
 
-def _better_than_repair(vm: ValidatedMesh, repaired_uv: np.ndarray, repaired: str,
-                        method: str) -> tuple[np.ndarray, str]:
-    """A repair of a free-boundary map gives way to the least sheared (lowest score) of the fold-free
-    harmonic and SLIM maps when that is less sheared than the repair. An Enneper surface's LSCM
-    folded one triangle; its composite-harmonic repair had a triangle sheared 3e8-fold, which the
-    fit could not factor; its harmonic map fits (issue 17). Halftunnel's LSCM folded one triangle;
-    the repair (score 9.8) left 46 patches above 20x the data's largest |H| and the boundary band's
-    curvature p99 60x the interior's; SLIM (score 2.3) none and 1.3x (issue 18)."""
-    if method not in ("lscm", "slim"):
-        return repaired_uv, repaired
-    best = score(summarize(*face_distortion(vm.V, vm.F, repaired_uv)))
-    for alt in ("harmonic", "slim"):
-        if alt == method:
-            continue
-        try:
-            uv = raw_map(vm, alt)
+def _global_alternative(vm: ValidatedMesh, method: str, report: Report = silent
+                        ) -> tuple[np.ndarray, str, float] | None:
+    """``(map, name, score)`` of the least sheared of the fold-free harmonic and SLIM maps other than
+    ``method``, or None. Why: an Enneper surface's LSCM folded one triangle; its composite-harmonic
+    repair had a triangle sheared 3e8-fold, which the fit could not factor; its harmonic map fits
+    (issue 17). Halftunnel's LSCM folded one triangle; the repair (score 9.8) left 46 patches above 20x
+    the data's largest |H| and the boundary band's curvature p99 60x the interior's; SLIM (score 2.3)
+    none and 1.3x (issue 18)."""
+    best: tuple[np.ndarray, str, float] | None = None
+    alts = [a for a in ("harmonic", "slim") if a != method]
+    for k, alt in enumerate(alts):
+        try:  # the harmonic map is one solve; SLIM's iterations take the rest
+            uv = raw_map(vm, alt, report=span(report, 0.1 * k, 1.0) if alt == "slim" else None)
         except (MeshError, np.linalg.LinAlgError):  # SLIM on a degenerate start: not a candidate
             continue
+        report(0.1 if alt == "harmonic" else 1.0)
         if signed_areas(uv, vm.F).sum() < 0:
             uv = uv * np.array([-1.0, 1.0])
         if np.isfinite(uv).all() and not np.logical_or(*fold_mask(uv, vm.F)).any():
             s = score(summarize(*face_distortion(vm.V, vm.F, uv)))
-            if s < best:
-                best, repaired_uv, repaired = s, uv, alt
-    return repaired_uv, repaired
+            if best is None or s < best[2]:
+                best = (uv, alt, s)
+    return best
 
 
 def _refuse_folds(uvn: np.ndarray, F: np.ndarray, method: str, repaired: str | None) -> None:

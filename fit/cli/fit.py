@@ -345,7 +345,8 @@ def _parameterize(args: argparse.Namespace, ui: UI, mesh: _Input) -> tuple[Any, 
     from trispline.param import parameterize
 
     t0 = time.perf_counter()
-    p = parameterize(mesh.V, mesh.F, method=args.param)
+    with ui.stages((args.param,), "parameterize") as bar:
+        p = parameterize(mesh.V, mesh.F, method=args.param, report=lambda fraction: bar.at(args.param, fraction))
     refuse_slivers(p.uv, p.faces)  # before the map's warnings: a refused fit says one thing
     _announce(ui, p)
     return p, time.perf_counter() - t0
