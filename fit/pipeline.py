@@ -159,7 +159,8 @@ def fit_surface(
     clock = StageTimer(progress)
     V, F = _check_mesh(V, F)
     uv, faces, parameterization = _domain(V, F, uv, param, stage_reporter(progress, PARAMETERIZE))
-    refuse_slivers(uv, faces)  # thin triangles make the normal matrix indefinite
+    # thin triangles make the normal matrix indefinite
+    refuse_slivers(uv, faces, V=V, method="given" if parameterization is None else parameterization.method)
     clock(PARAMETERIZE)
     tri = Triangulation(uv, faces)
     space = build_space(tri)

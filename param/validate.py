@@ -81,10 +81,25 @@ def sliver_message(points: np.ndarray, faces: np.ndarray) -> str | None:
             f"at most {MAX_DOMAIN_ASPECT:g}): faces {first_few(bad)}; collapse or remove them")
 
 
-def refuse_slivers(points: np.ndarray, faces: np.ndarray) -> None:
+def refuse_slivers(points: np.ndarray, faces: np.ndarray, *, V: np.ndarray | None = None,
+                   method: str = "given") -> None:
     """:class:`MeshError` (kind ``"slivers"``) when :func:`sliver_message` finds triangles too thin
-    to fit (their normal matrix is not positive definite in float64)."""
+    to fit (their normal matrix is not positive definite in float64).
+
+    ``points`` a domain ``(n, 2)`` of the mesh ``V (n, 3)``, made by the parameterization ``method``:
+    where the mesh's own triangles are not slivers, the message says that the map made them so, and
+    to choose another (LSCM collapsed an open cylinder's tall triangles to aspect 6e12; ``auto`` fits it).
+    """
     message = sliver_message(points, faces)
+    if message and V is not None:
+        aspect = face_aspects(points, faces)
+        bad = aspect > MAX_DOMAIN_ASPECT
+        in_3d = float(face_aspects(V, faces[bad]).max())
+        if in_3d <= MAX_DOMAIN_ASPECT:
+            message = (f"the {method} parameterization squeezed {int(bad.sum())} triangles into slivers too thin "
+                       f"to fit (longest edge / height up to {aspect.max():.3g}, at most {MAX_DOMAIN_ASPECT:g}; on "
+                       f"the mesh at most {in_3d:.3g}): faces {first_few(np.flatnonzero(bad))}; choose another "
+                       "parameterization (--param auto, slim or harmonic; param= in Python)")
     if message:
         raise MeshError(message, ["slivers"])
 

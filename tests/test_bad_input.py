@@ -846,3 +846,19 @@ def test_an_interrupt_a_library_turns_into_its_own_error_is_still_an_interrupt(c
     capsys.readouterr()
     assert common.run_cli(make_parser, []) == 130
     assert capsys.readouterr().err.strip() == "trispline: interrupted"
+
+
+def test_slivers_made_by_the_map_name_the_map_and_another_to_choose(tmp_path, capsys):
+    """An open cylinder of one row of tall triangles (aspect 31 on the mesh): LSCM squeezes two to aspect
+    ~1e12. The refusal says the map made them (not 'collapse or remove them', which the mesh does not need)
+    and which parameterizations to try; ``--param auto`` fits it."""
+    t = np.linspace(0.0, 2 * np.pi, 64, endpoint=False)
+    V = np.r_[np.c_[np.cos(t), np.sin(t), 0 * t], np.c_[np.cos(t), np.sin(t), 0 * t + 3.0]]
+    i = np.arange(64)
+    F = np.r_[np.c_[i, (i + 1) % 64, 64 + i], np.c_[(i + 1) % 64, 64 + (i + 1) % 64, 64 + i]]
+    path = tmp_path / "cylinder.obj"
+    trimesh.Trimesh(V, F, process=False).export(path)
+    r = cli(capsys, "fit", path, "-o", tmp_path / "s.npz", "-q")
+    assert_cli_error(r, "the lscm parameterization squeezed")
+    assert "--param auto" in r.err and "collapse or remove" not in r.err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cylinder.obj"]

@@ -340,14 +340,14 @@ def _announce(ui: UI, p: Any) -> None:
 def _parameterize(args: argparse.Namespace, ui: UI, mesh: _Input) -> tuple[Any, float]:
     """``(Parameterization, seconds)``: the one of ``--param uv`` made when loading, else ``--param``'s map."""
     if mesh.parameterization is not None:
-        refuse_slivers(mesh.parameterization.uv, mesh.parameterization.faces)
+        refuse_slivers(mesh.parameterization.uv, mesh.parameterization.faces, V=mesh.V, method="uv")
         return mesh.parameterization, 0.0
     from trispline.param import parameterize
 
     t0 = time.perf_counter()
     with ui.stages((args.param,), "parameterize") as bar:
         p = parameterize(mesh.V, mesh.F, method=args.param, report=lambda fraction: bar.at(args.param, fraction))
-    refuse_slivers(p.uv, p.faces)  # before the map's warnings: a refused fit says one thing
+    refuse_slivers(p.uv, p.faces, V=mesh.V, method=p.method)  # before the map's warnings: one thing said
     _announce(ui, p)
     return p, time.perf_counter() - t0
 
