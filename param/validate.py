@@ -187,7 +187,7 @@ def validate_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) -
             V, F, kept, kept_faces, message = _largest_component(V, F, vlab, ncomp)
             messages.append(message)
         else:
-            problems.append(_components_problem(F, vlab, ncomp))
+            problems.append(_components_problem(V, F, vlab, ncomp))
     # -- stage 2: independent local problems, reported together
     he, edges, he_edge, edge_count = undirected_edges(F, V.shape[0])
     problems += _local_problems(V, F, edges, he_edge, edge_count, kept)
@@ -247,12 +247,27 @@ def _largest_component(V: np.ndarray, F: np.ndarray, vlab: np.ndarray, ncomp: in
     return V[kept], remap[F[kept_faces]], kept, kept_faces, message
 
 
-def _components_problem(F: np.ndarray, vlab: np.ndarray, ncomp: int) -> tuple[str, str]:
+def _components_problem(V: np.ndarray, F: np.ndarray, vlab: np.ndarray, ncomp: int) -> tuple[str, str]:
+    """The several components' problem; where they touch at vertices of equal coordinates (a seam of
+    duplicated vertices, as some exporters write at texture seams), it says how many and how to merge."""
     sizes = np.sort(np.bincount(vlab[F[:, 0]], minlength=ncomp))[::-1]
     shown = ", ".join(str(int(s)) for s in sizes[:8]) + (", ..." if sizes.size > 8 else "")
+    seam = _seam_vertices(V, vlab)
+    hint = (f"; {seam} vertices lie exactly on a vertex of another component (a seam of duplicated "
+            "vertices?): merge them first, e.g. trimesh.Trimesh(V, F).merge_vertices()" if seam else "")
     return ("components",
             f"the mesh has {ncomp} connected components (faces per component: {shown}); "
-            "trispline needs one surface: use keep_largest=True (--keep-largest) or split the mesh")
+            f"trispline needs one surface: use keep_largest=True (--keep-largest) or split the mesh{hint}")
+
+
+def _seam_vertices(V: np.ndarray, vlab: np.ndarray) -> int:
+    """Vertices ``V (nv, 3)`` sharing their exact coordinates with a vertex of another component (``vlab``)."""
+    order = np.lexsort(V.T[::-1])
+    Vs, ls = V[order], vlab[order]
+    same = (Vs[1:] == Vs[:-1]).all(1) & (ls[1:] != ls[:-1])
+    touching = np.zeros(V.shape[0], bool)
+    touching[order[1:][same]] = touching[order[:-1][same]] = True
+    return int(touching.sum())
 
 
 def _local_problems(V: np.ndarray, F: np.ndarray, edges: np.ndarray, he_edge: np.ndarray,

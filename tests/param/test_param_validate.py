@@ -166,6 +166,28 @@ def test_components_and_keep_largest():
     np.testing.assert_array_equal(vm.F, F1)
     np.testing.assert_array_equal(vm.V, V1)
     assert "kept the largest of 2" in vm.messages[0]
+    assert "seam" not in str(e.value)  # apart: no hint
+
+
+def test_components_split_by_a_seam_of_duplicated_vertices_say_so():
+    """Two halves of a square whose middle column of vertices is written twice (as exporters do at texture
+    seams): the refusal counts the vertices that coincide across components and says to merge them."""
+    n = 6
+    x, y = np.meshgrid(np.arange(n + 1.0), np.arange(n + 1.0))
+    V = np.column_stack([x.ravel(), y.ravel(), 0.1 * x.ravel() ** 2])
+    idx = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+    F = np.r_[np.c_[a, b, d], np.c_[a, d, c]]
+    middle = idx[:, n // 2]
+    copy = np.full(len(V), -1)
+    copy[middle] = len(V) + np.arange(middle.size)
+    right = V[F].mean(1)[:, 0] > n // 2
+    F[right] = np.where(copy[F[right]] >= 0, copy[F[right]], F[right])
+    V = np.r_[V, V[middle]]
+    with pytest.raises(MeshError, match=rf"2 connected components.*{2 * middle.size} vertices lie exactly on a "
+                                        r"vertex of another component \(a seam.*merge them") as e:
+        validate_mesh(V, F)
+    assert e.value.kinds == ("components",)
 
 
 def test_several_problems_in_one_error():
