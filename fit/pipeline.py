@@ -35,6 +35,7 @@ from .energy.data import DataPoints, as_data_points
 from .errors import FitError
 from .gauss_newton import QuadraticStep, iterate
 from .progress import counting, span, stage_reporter
+from .limits import check_fit_memory
 from .solve import PatternAnalysis, check_memory, estimate_factor_bytes, release_free_heap, require_x64
 from .stages import ASSEMBLE, BUILD, FACTOR, FINISH, PARAMETERIZE, SOLVE
 from .weights import FitWeights
@@ -158,6 +159,7 @@ def fit_surface(
         raise InputError(f"weights must be a FitWeights, got {type(weights).__name__}")
     clock = StageTimer(progress)
     V, F = _check_mesh(V, F)
+    check_fit_memory(F.shape[0])  # before the parameterization: at 1M faces it alone can take minutes
     uv, faces, parameterization = _domain(V, F, uv, param, stage_reporter(progress, PARAMETERIZE))
     # thin triangles make the normal matrix indefinite
     refuse_slivers(uv, faces, V=V, method="given" if parameterization is None else parameterization.method)

@@ -250,6 +250,9 @@ def _fit(args: argparse.Namespace, ui: UI, outputs: dict[str, Path | None],
     mesh = _load_input(args, ui)
     _warn_far_from_origin(ui, mesh.V)
     _check_output_sizes(args, mesh, outputs)
+    from ..limits import check_fit_memory
+
+    check_fit_memory(mesh.F.shape[0])  # before the parameterization (minutes at 1M faces)
     p, param_seconds = _parameterize(args, ui, mesh)
     result, fit_seconds = _solve(args, ui, mesh, p, weights)
     surface = _with_fit_extras(result, weights, args.param, mesh.source, mesh.kept, parameterization=p,

@@ -433,6 +433,30 @@ def test_fit_refused_above_available_memory(monkeypatch, tmp_path):
     assert not out.exists()
 
 
+def test_fit_refused_by_its_size_before_the_parameterization(monkeypatch, tmp_path, capsys):
+    """The whole fit's peak (about 22 kB a face) against the available memory, before the map: a 1M-face
+    scan's LSCM map and its repair took 1.5 min before the factor's check could refuse it."""
+    from trispline.fit import limits
+    from trispline.fit.cli import main
+
+    V, F = synthetic_scan(600)
+    need = limits.estimate_fit_bytes(F.shape[0])
+    assert need == limits.FIT_BASE_BYTES + limits.FIT_BYTES_PER_FACE * F.shape[0]
+    monkeypatch.setattr(limits, "available_memory", lambda: need - 1)
+    param = importlib.import_module("trispline.param.parameterize")
+    monkeypatch.setattr(param, "validate_mesh", lambda *a, **k: pytest.fail("parameterized"))
+    with pytest.raises(FactorMemoryError, match=rf"interpolating fit of {F.shape[0]:,} faces needs about .* "
+                                                r"--tolerance") as info:
+        fit_surface(V, F)
+    assert info.value.estimate == need and info.value.available == need - 1
+    out = tmp_path / "s.npz"
+    monkeypatch.setattr(limits, "available_memory", lambda: limits.FIT_BASE_BYTES)
+    assert main(["fit", "--example", "--example-faces", "300", "-o", str(out), "--quiet"]) == 2
+    assert "interpolating fit of" in capsys.readouterr().err and not out.exists()
+    monkeypatch.setattr(limits, "available_memory", lambda: need)
+    limits.check_fit_memory(F.shape[0])  # exactly enough: accepted
+
+
 def test_factor_refused_after_its_analysis():
     V, F = _franke(400, seed=1)
     space = build_space(Triangulation(V[:, :2], F))

@@ -334,3 +334,13 @@ def test_slim_reports_each_iteration():
     slim_uv(validate_mesh(V, F), max_iterations=5, report=seen.append)
     np.testing.assert_allclose(seen, np.arange(1, len(seen) + 1) / 5)
     assert len(seen) >= 2
+
+
+def test_slim_stops_after_the_iteration_that_passes_its_time_budget():
+    from trispline.param.methods import slim_uv
+
+    V, F = bumpy_disk(400)
+    seen: list[float] = []
+    uv = slim_uv(validate_mesh(V, F), max_iterations=5, max_seconds=0.0, report=seen.append)
+    assert seen == [0.2] and np.isfinite(uv).all()
+    assert not np.logical_or(*fold_mask(uv, F)).any()
