@@ -26,7 +26,7 @@ from .errors import MeshError
 from .methods import MAPS, raw_map
 from .repair import polygon_area, repair_folds
 from .smooth import smooth_uv
-from .validate import ValidatedMesh, validate_mesh
+from .validate import ValidatedMesh, map_slivers, validate_mesh
 
 METHODS = MAPS + ("auto",)
 #: The maps ``method="auto"`` measures: the first alone when it is good (fold-free, score
@@ -197,6 +197,8 @@ def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
     report(_SMOOTH_DONE)
     raw, repaired, folds = _unfold(vm, raw, method, uv is None, repair, messages,
                                    span(report, _SMOOTH_DONE, _REPAIR_DONE))
+    if repaired is None:
+        raw, repaired = _unsliver(vm, raw, method, repair, messages, span(report, _SMOOTH_DONE, _REPAIR_DONE))
     if smooth and repaired in ("harmonic", "slim"):  # a map that replaced a worse repair
         raw, smoothing = _smoothed(vm, raw, repaired, messages)
     report(_REPAIR_DONE)
@@ -301,10 +303,30 @@ def _unfold(vm: ValidatedMesh, raw: np.ndarray, method: str, no_uv: bool, repair
     return raw, repaired, (n_flip, n_deg)
 
 
+def _unsliver(vm: ValidatedMesh, raw: np.ndarray, method: str, repair: bool, messages: list[str],
+              report: Report = silent) -> tuple[np.ndarray, str | None]:
+    """``(map, name of its replacement or None)``: a fold-free free-boundary map that squeezed triangles of
+    the mesh into slivers too thin to fit (:func:`~trispline.param.validate.map_slivers`; LSCM on an open
+    cylinder of tall triangles: aspect 6e12) gives way to the least sheared harmonic or SLIM map without
+    them, as a folded one does; else it stays (and a fit refuses it, naming the map)."""
+    if method not in ("lscm", "slim") or not repair:
+        return raw, None
+    bad = map_slivers(vm.V, raw, vm.F)
+    if not bad.any():
+        return raw, None
+    alt = _global_alternative(vm, method, report)
+    if alt is None:
+        return raw, None
+    messages.append(f"the {method} map squeezed {int(bad.sum())} triangles into slivers (faces "
+                    f"{first_few(np.flatnonzero(bad))}); replaced with the {alt[1]} map")
+    return alt[0], alt[1]
+
+
 def _global_alternative(vm: ValidatedMesh, method: str, report: Report = silent
                         ) -> tuple[np.ndarray, str, float] | None:
-    """``(map, name, score)`` of the least sheared of the fold-free harmonic and SLIM maps other than
-    ``method``, or None. Why: an Enneper surface's LSCM folded one triangle; its composite-harmonic
+    """``(map, name, score)`` of the least sheared of the harmonic and SLIM maps other than ``method``
+    that neither fold nor make slivers (:func:`~trispline.param.validate.map_slivers`), or None.
+    Why: an Enneper surface's LSCM folded one triangle; its composite-harmonic
     repair had a triangle sheared 3e8-fold, which the fit could not factor; its harmonic map fits
     (issue 17). Halftunnel's LSCM folded one triangle; the repair (score 9.8) left 46 patches above 20x
     the data's largest |H| and the boundary band's curvature p99 60x the interior's; SLIM (score 2.3)
@@ -319,7 +341,8 @@ def _global_alternative(vm: ValidatedMesh, method: str, report: Report = silent
         report(0.1 if alt == "harmonic" else 1.0)
         if signed_areas(uv, vm.F).sum() < 0:
             uv = uv * np.array([-1.0, 1.0])
-        if np.isfinite(uv).all() and not np.logical_or(*fold_mask(uv, vm.F)).any():
+        if (np.isfinite(uv).all() and not np.logical_or(*fold_mask(uv, vm.F)).any()
+                and not map_slivers(vm.V, uv, vm.F).any()):
             s = score(summarize(*face_distortion(vm.V, vm.F, uv)))
             if best is None or s < best[2]:
                 best = (uv, alt, s)

@@ -81,6 +81,15 @@ def sliver_message(points: np.ndarray, faces: np.ndarray) -> str | None:
             f"at most {MAX_DOMAIN_ASPECT:g}): faces {first_few(bad)}; collapse or remove them")
 
 
+def map_slivers(V: np.ndarray, uv: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Mask ``(nf,)`` of the faces ``F`` that the map ``uv (nv, 2)`` of ``V (nv, 3)`` made slivers: aspect
+    above :data:`~trispline.spline.tolerances.MAX_DOMAIN_ASPECT` in uv, not on the mesh."""
+    bad = face_aspects(uv, F) > MAX_DOMAIN_ASPECT
+    if bad.any():
+        bad[bad] = face_aspects(V, F[bad]) <= MAX_DOMAIN_ASPECT
+    return bad
+
+
 def refuse_slivers(points: np.ndarray, faces: np.ndarray, *, V: np.ndarray | None = None,
                    method: str = "given") -> None:
     """:class:`MeshError` (kind ``"slivers"``) when :func:`sliver_message` finds triangles too thin
@@ -94,8 +103,8 @@ def refuse_slivers(points: np.ndarray, faces: np.ndarray, *, V: np.ndarray | Non
     if message and V is not None:
         aspect = face_aspects(points, faces)
         bad = aspect > MAX_DOMAIN_ASPECT
-        in_3d = float(face_aspects(V, faces[bad]).max())
-        if in_3d <= MAX_DOMAIN_ASPECT:
+        if not (bad & ~map_slivers(V, points, faces)).any():  # the map made them all
+            in_3d = float(face_aspects(V, faces[bad]).max())
             message = (f"the {method} parameterization squeezed {int(bad.sum())} triangles into slivers too thin "
                        f"to fit (longest edge / height up to {aspect.max():.3g}, at most {MAX_DOMAIN_ASPECT:g}; on "
                        f"the mesh at most {in_3d:.3g}): faces {first_few(np.flatnonzero(bad))}; choose another "

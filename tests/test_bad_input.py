@@ -848,10 +848,14 @@ def test_an_interrupt_a_library_turns_into_its_own_error_is_still_an_interrupt(c
     assert capsys.readouterr().err.strip() == "trispline: interrupted"
 
 
-def test_slivers_made_by_the_map_name_the_map_and_another_to_choose(tmp_path, capsys):
+def test_slivers_made_by_the_map_are_replaced_or_refused_naming_the_map(tmp_path, capsys):
     """An open cylinder of one row of tall triangles (aspect 31 on the mesh): LSCM squeezes two to aspect
-    ~1e12. The refusal says the map made them (not 'collapse or remove them', which the mesh does not need)
-    and which parameterizations to try; ``--param auto`` fits it."""
+    ~1e12. The fit replaces the map by the harmonic one and says so; a map that cannot be replaced (the
+    user's) is refused saying that the map made them (not 'collapse or remove them', which the mesh does
+    not need) and which parameterizations to try."""
+    from trispline.param import MeshError, refuse_slivers, validate_mesh
+    from trispline.param.methods import raw_map
+
     t = np.linspace(0.0, 2 * np.pi, 64, endpoint=False)
     V = np.r_[np.c_[np.cos(t), np.sin(t), 0 * t], np.c_[np.cos(t), np.sin(t), 0 * t + 3.0]]
     i = np.arange(64)
@@ -859,6 +863,12 @@ def test_slivers_made_by_the_map_name_the_map_and_another_to_choose(tmp_path, ca
     path = tmp_path / "cylinder.obj"
     trimesh.Trimesh(V, F, process=False).export(path)
     r = cli(capsys, "fit", path, "-o", tmp_path / "s.npz", "-q")
-    assert_cli_error(r, "the lscm parameterization squeezed")
-    assert "--param auto" in r.err and "collapse or remove" not in r.err
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["cylinder.obj"]
+    assert r.rc == 0 and "the lscm map squeezed 2 triangles into slivers" in r.err
+    assert "replaced with the harmonic map" in r.err
+    assert cli(capsys, "check", tmp_path / "s.npz").rc == 0
+    lscm = raw_map(validate_mesh(V, F), "lscm")
+    with pytest.raises(MeshError, match="the lscm parameterization squeezed 2 triangles") as e:
+        refuse_slivers(lscm, F, V=V, method="lscm")
+    assert "--param auto" in str(e.value) and "collapse or remove" not in str(e.value)
+    with pytest.raises(MeshError, match="collapse or remove"):  # without the mesh: its own slivers
+        refuse_slivers(lscm, F)
