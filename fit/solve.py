@@ -36,10 +36,11 @@ import jax.numpy as jnp
 import lineax as lx
 import numpy as np
 import scipy.sparse as sp
-from trispline.spline.util.memory import available_memory, format_bytes, page_size, thread_page_faults
+from trispline.spline.util.memory import available_memory, page_size, thread_page_faults
 from trispline.spline.util.spd import SPD_PARDISO_MIN, point_pypardiso_at_mkl, spd_backend
 
-from .errors import FactorMemoryError, X64Error
+from .errors import FactorMemoryError, X64Error  # noqa: F401 - the refusal of check_memory (docs)
+from .limits import refuse_above
 from .progress import Report, silent, span, watching
 
 __all__ = ["SparseCholesky", "PatternAnalysis", "FactorSolver", "require_x64", "symmetric_from_upper", "estimate_factor_bytes",
@@ -151,13 +152,8 @@ def check_memory(estimate: int, max_bytes: int | str | None) -> None:
     ``max_bytes``: bytes, ``"available"`` (:func:`trispline.spline.util.memory.available_memory`
     now) or None (no check).
     """
-    limit = available_memory() if max_bytes == "available" else max_bytes
-    if limit is None or estimate <= limit:
-        return
-    raise FactorMemoryError(
-        f"the sparse factorisation of this fit needs about {format_bytes(estimate)}, but only "
-        f"{format_bytes(limit)} of memory are available; fit a smaller mesh, or approximate it with "
-        f"fewer patches: trispline fit --tolerance TOL (approximation mode)", estimate=estimate, available=limit)
+    refuse_above(estimate, available_memory() if max_bytes == "available" else max_bytes,
+                 "the sparse factorisation of this fit")
 
 
 class SparseCholesky:
