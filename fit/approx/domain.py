@@ -83,7 +83,7 @@ from .cdt import constrained, hole_seeds, loop_segments, quality_mesh
 from .locate import ClampedLocator, Located
 from .quality import REPAIR_ROUNDS, better_vertices, face_angles
 
-__all__ = ["CoarseDomain", "DomainStats", "coarse_domain", "coarse_index", "insert", "separation", "ADAPT",
+__all__ = ["BoundaryBudgetError", "CoarseDomain", "DomainStats", "coarse_domain", "coarse_index", "insert", "separation", "ADAPT",
            "DEFAULT_FRACTION",
            "MIN_SEPARATION"]
 
@@ -286,6 +286,16 @@ def _quality_mesh(P: np.ndarray, segments: np.ndarray, holes: np.ndarray, sizing
         return AREA_FACTOR * np.sqrt(3.0) / 4.0 * sizing.spacing(lam, pts) ** 2
 
     return quality_mesh(P, segments, holes, area, QUALITY_ANGLE, REFINE_ROUNDS)
+
+
+class BoundaryBudgetError(InputError):
+    """A vertex budget below what the scan's outline needs; ``needed``: the vertices it took at the coarsest
+    spacing tried (the corners kept depend on the spacing, so no floor is known before the passes)."""
+
+    def __init__(self, budget: int, needed: int, corners: int, loops: int) -> None:
+        super().__init__(f"a budget of {budget} vertices is below what the boundary needs: it took {needed} "
+                         f"vertices ({corners} corners, {loops} loops) at the coarsest spacing tried")
+        self.budget, self.needed = budget, needed
 
 
 class _ScanIndex:
@@ -534,8 +544,7 @@ def _choose(uv: np.ndarray, loops: tuple[np.ndarray, ...], sizing: _Sizing, lam:
         nb = sum(b.size for b in boundary)
         if budget is not None and nb > budget:
             if it == 2 * BUDGET_PASSES - 1:
-                raise InputError(f"a budget of {budget} vertices is below what the boundary needs: it took {nb} "
-                                 f"vertices ({corners.size} corners, {len(loops)} loops) at the coarsest spacing tried")
+                raise BoundaryBudgetError(budget, nb, corners.size, len(loops))
             lam *= 0.5 * (budget / nb) ** 2
             continue
         P = uv[np.concatenate(boundary)]

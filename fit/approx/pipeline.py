@@ -43,7 +43,7 @@ from ..solve import require_x64
 from ..weights import FitWeights
 from .analysis import SPIKE_LEVELS
 from .deviation import Deviation, summary
-from .domain import DEFAULT_FRACTION, CoarseDomain, coarse_domain, insert
+from .domain import DEFAULT_FRACTION, BoundaryBudgetError, CoarseDomain, coarse_domain, insert
 from .fit import (APPROX_WEIGHTS, corrected_location, cross_validated_weight, fit_domain, quadric_reference,
                   scan_location)
 from .problem import CORNER_MODES
@@ -56,7 +56,8 @@ __all__ = ["ApproxResult", "approximate_surface", "APPROX_STAGES", "LOSS_NAMES",
 LOSS_NAMES = ("l2",) + LOSSES
 #: Stages reported to ``progress`` and timed in ``ApproxResult.timings``.
 APPROX_STAGES = ("parameterize", "domain", "smoothing", "fit", "deviation", "refine", "final")
-#: Vertex budget with a tolerance and no ``n_vertices``: this fraction of the scan.
+#: Vertex budget with a tolerance and no ``n_vertices``: this fraction of the scan (plus what the outline
+#: needs where it alone needs more: :class:`~.domain.BoundaryBudgetError`).
 DEFAULT_BUDGET_FRACTION = 0.10
 #: With a tolerance, the first coarse domain has this fraction of the scan (at most the budget).
 INITIAL_FRACTION = 0.005
@@ -166,6 +167,8 @@ class _Options:
     reference: Polynomial | None = None
     #: the scan's parameters follow the coarse boundary chords (:mod:`.warp`); off with the caller's own uv
     warp: bool = True
+    #: the caller set the budget (``n_vertices``); else it is the default, and grows to the outline's need
+    budget_given: bool = True
 
 
 def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corners, loss, weights) -> _Options:
@@ -189,7 +192,8 @@ def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corn
     else:
         budget = max(16, int(round((DEFAULT_FRACTION if tol is None else DEFAULT_BUDGET_FRACTION) * n)))
     return _Options(tolerance=tol, budget=min(budget, n), refine=tol is not None, corners=corners, loss=loss,
-                    weights=APPROX_WEIGHTS if weights is None else weights, auto=weights is None)
+                    weights=APPROX_WEIGHTS if weights is None else weights, auto=weights is None,
+                    budget_given=n_vertices is not None)
 
 
 def _smoothed(V: np.ndarray, F: np.ndarray, steps: int = PARAM_SMOOTHING) -> np.ndarray:
@@ -337,7 +341,13 @@ def approximate_surface(
     uv, faces, parameterization = _domain_uv(V, F, uv, param)
     opt = dataclasses.replace(opt, warp=parameterization.method != "uv")
     stage("parameterize")
-    dom = _first_domain(V, faces, uv, opt, max_rounds)
+    try:
+        dom = _first_domain(V, faces, uv, opt, max_rounds)
+    except BoundaryBudgetError as exc:  # the default budget: the outline's need on top of it
+        if opt.budget_given or opt.budget >= V.shape[0]:
+            raise
+        opt = dataclasses.replace(opt, budget=min(V.shape[0], exc.needed + opt.budget))
+        dom = _first_domain(V, faces, uv, opt, max_rounds)
     opt = dataclasses.replace(opt, reference=quadric_reference(dom, V))
     stage("domain")
     if opt.auto:
