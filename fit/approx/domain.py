@@ -538,14 +538,17 @@ def _choose(uv: np.ndarray, loops: tuple[np.ndarray, ...], sizing: _Sizing, lam:
     :data:`BUDGET_PASSES` passes; an excess left then is trimmed (:func:`_trim`). A
     boundary that alone exceeds the budget is thinned with a coarser spacing first.
     """
+    counts: list[int] = []
     for it in range(2 * BUDGET_PASSES):
         boundary, corners = _thin_boundary(loops, uv, sizing, lam, corner_angle)
         boundary = _triangulate(uv, boundary, np.empty(0, np.int64), loops, position)[0]  # chords uncrossed
         nb = sum(b.size for b in boundary)
         if budget is not None and nb > budget:
-            if it == 2 * BUDGET_PASSES - 1:
+            # two coarser spacings that thinned nothing: the corners and three a loop are all left (64 holes: 29 s)
+            if it == 2 * BUDGET_PASSES - 1 or counts[-2:] == [nb, nb]:
                 raise BoundaryBudgetError(budget, nb, corners.size, len(loops))
             lam *= 0.5 * (budget / nb) ** 2
+            counts.append(nb)
             continue
         P = uv[np.concatenate(boundary)]
         mesh = _quality_mesh(P, loop_segments([b.size for b in boundary]), hole_seeds([uv[b] for b in boundary]),

@@ -6,6 +6,8 @@ from __future__ import annotations
 import dataclasses
 
 import jax
+import importlib
+
 import numpy as np
 import pytest
 
@@ -484,3 +486,26 @@ def test_points_no_boundary_patch_reaches_get_no_data_weight(f, loss):
     np.testing.assert_allclose(fit.surface.evaluate(face[keep], bary[keep]), V2[keep], rtol=0, atol=1e-9 * diag)
     assert np.array_equal(fit.unreached, unreached)
     assert fit.energies["bend"] <= 1e-12 and fit.energies["data"] <= 1e-12
+
+
+def test_an_outline_that_no_coarser_spacing_thins_is_refused_without_the_remaining_passes(monkeypatch):
+    """Eight square holes keep their corners at any spacing: once two coarser passes thin nothing, the budget
+    is refused (64 such holes took 29 s through every pass, 2.7 s now)."""
+    domain = importlib.import_module("trispline.fit.approx.domain")
+    n = 17
+    x, y = np.meshgrid(np.arange(n, dtype=float), np.arange(n, dtype=float))
+    V = np.column_stack([x.ravel(), y.ravel(), 0.02 * (x.ravel() - 8) ** 2])
+    idx = np.arange(n * n).reshape(n, n)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+    hole = np.isin(y[:-1, :-1].ravel(), [3, 4, 10, 11]) & np.isin(x[:-1, :-1].ravel(), [1, 2, 5, 6, 9, 10, 13, 14])
+    F = np.r_[np.c_[a, b, d][~hole], np.c_[a, d, c][~hole]]
+    used = np.unique(F)  # the holes' centres are in no face
+    remap = np.full(len(V), -1)
+    remap[used] = np.arange(used.size)
+    V, F = V[used], remap[F]
+    passes = []
+    real = domain._thin_boundary
+    monkeypatch.setattr(domain, "_thin_boundary", lambda *a, **k: passes.append(1) or real(*a, **k))
+    with pytest.raises(domain.BoundaryBudgetError, match="a budget of 10 vertices is below") as e:
+        approximate_surface(V, F, uv=V[:, :2], n_vertices=10)
+    assert e.value.needed > 30 and len(passes) < 2 * domain.BUDGET_PASSES
