@@ -34,7 +34,7 @@ from . import energy as en
 from .energy.data import DataPoints, as_data_points
 from .errors import FitError
 from .gauss_newton import QuadraticStep, iterate
-from .progress import counting, span, stage_reporter
+from .progress import counting, silent, span, stage_reporter
 from .limits import check_fit_memory
 from .solve import PatternAnalysis, check_memory, estimate_factor_bytes, release_free_heap, require_x64
 from .stages import ASSEMBLE, BUILD, FACTOR, FINISH, PARAMETERIZE, SOLVE
@@ -165,7 +165,7 @@ def fit_surface(
     refuse_slivers(uv, faces, V=V, method="given" if parameterization is None else parameterization.method)
     clock(PARAMETERIZE)
     tri = Triangulation(uv, faces)
-    space = build_space(tri)
+    space = build_space(tri, report=stage_reporter(progress, BUILD))
     # refuse a factorisation that cannot fit in memory before assembling it (the analysis checks again)
     check_memory(estimate_factor_bytes(space.n_free - tri.n_vertices, 0), "available")
     clock(BUILD)
@@ -191,7 +191,8 @@ def fit_surface(
     else:
         x, energies, steps, ok = iterate(prob, factor, solver, max_steps)
     clock(SOLVE)
-    result = _finish(V, space, prob, x, energies, centre, size, steps, ok, weights, parameterization)
+    result = _finish(V, space, prob, x, energies, centre, size, steps, ok, weights, parameterization,
+                     stage_reporter(progress, FINISH))
     result["stats"].update(analysis_seconds=factor.analysis_seconds, analysis_wait_seconds=analysis.wait_seconds)
     clock(FINISH)
     if throw and not ok:
@@ -203,17 +204,21 @@ def fit_surface(
 
 
 def _finish(V: np.ndarray, space: SplineSpace, prob: en.Problem, x: np.ndarray, energies: dict[str, float],
-            centre: np.ndarray, size: float, steps: int, ok: bool, weights: FitWeights, parameterization) -> dict:
-    """The result's fields (all but the timings): control points, energies in data units, checks."""
+            centre: np.ndarray, size: float, steps: int, ok: bool, weights: FitWeights, parameterization,
+            report: Callable[[float], None] = silent) -> dict:
+    """The result's fields (all but the timings): control points, energies in data units, checks;
+    ``report``: progress after the control points and after the continuity check."""
     tri = space.tri
     free = np.zeros((space.n_free, 3))
     free[space.corner_free] = V
     free[prob.free_r] = x * size + centre
     ctrl = space.control_points(free, about=working_origin(V))  # far-off data: C1 to its coordinates' rounding
+    report(0.5)
     # the residuals are linear in the data's scale, except the angle term's
     units = en.energy_units(size)
     energies = {k: v * units[k] for k, v in energies.items()}
     rep = continuity_report(tri, ctrl)
+    report(0.9)
     interp = float(np.abs(ctrl[np.arange(tri.n_faces)[:, None], CORNER[None, :]] - V[tri.faces]).max())
     extras = dict(data_vertices=V, free=free, fit_weights=np.array(list(asdict(weights).values()), float))
     if space.stats["snapped_vertices"]:  # uv moved onto exact crossings (spline.propagation.snap): by how much

@@ -15,7 +15,7 @@ import time
 from typing import Any, Callable
 
 from trispline.spline.util.parallel import map_reporting  # re-exported: the fit's stages report through it
-from trispline.spline.util.progress import Report, silent, span  # re-exported likewise
+from trispline.spline.util.progress import Report, counting, silent, span  # re-exported likewise
 
 __all__ = ["Report", "silent", "span", "map_reporting", "accepts_fraction", "stage_reporter", "counting",
            "watching", "WATCH_INTERVAL"]
@@ -42,18 +42,6 @@ def stage_reporter(progress: Callable[..., Any] | None, stage: str) -> Report:
         return silent
     start = time.perf_counter()
     return lambda fraction: progress(stage, time.perf_counter() - start, fraction)
-
-
-def counting(report: Report | None, parts: int) -> Callable[[], None]:
-    """A callable that reports ``report(k / parts)`` on its ``k``-th call: for work that announces each of
-    ``parts`` equal pieces as it ends (a compiled step's host solves), capped at 1."""
-    report = report or silent
-    done = [0]
-
-    def tick() -> None:
-        done[0] += 1
-        report(min(done[0] / parts, 1.0))
-    return tick
 
 
 def watching(work: Callable[[], Any], done: Callable[[], float], report: Report | None) -> Any:

@@ -21,6 +21,7 @@ import scipy.sparse as sp
 from ..net import NetLayout
 from ..topology import Triangulation
 from ..util import gather as _gather, memory as _memory, parallel as _parallel, sparse as _sparse
+from ..util.progress import Report, counting
 from .diamonds import diamond_ids, flip_pair, star_weights
 from .elimination import Eliminated
 
@@ -54,12 +55,14 @@ class _Rows:
 
 def assemble(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, c2: np.ndarray, bad_v: np.ndarray,
              frame_scale: np.ndarray, free_pts: np.ndarray, free_of_point: np.ndarray, n_free: int,
-             length: np.ndarray, elim: Eliminated) -> tuple[sp.csr_array, float]:
+             length: np.ndarray, elim: Eliminated, report: Report | None = None) -> tuple[sp.csr_array, float]:
     """``M: (n_points, n_free)`` CSR and the largest propagation coefficient written.
 
     ``free_pts``: sorted ids of the free points besides corners and frames;
-    ``length: (n_points,) int32`` with the fast-path middle rows already set to 5.
+    ``length: (n_points,) int32`` with the fast-path middle rows already set to 5;
+    ``report``: progress after each of the :data:`ASSEMBLY_STEPS` steps.
     """
+    step = counting(report, ASSEMBLY_STEPS)
     nv, npts, ne_int = tri.n_vertices, lay.n_points, tri.interior_edges.size
     reduced = _reduced_rows(elim, free_of_point)
     length[reduced.dep] = reduced.n_a + 3
@@ -67,6 +70,7 @@ def assemble(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, c2: np
     length[free_pts] = 1
     length[lay.star0 : lay.mid0] = 3
     work.map(partial(_flip_lengths, tri, lay, c2, length), ne_int)
+    step()
     nnz = int(length.sum(dtype=np.int64))
     idx_t = _memory.index_dtype(nnz, n_free, npts)
     indptr = _memory.full(npts + 1, 0, idx_t)
@@ -76,16 +80,25 @@ def assemble(work: _parallel.Workers, tri: Triangulation, lay: NetLayout, c2: np
     # corners and stars occupy the first ids with fixed lengths 1 and 3: one contiguous block
     rows.data[:nv] = 1.0
     rows.indices[:nv] = np.arange(nv)
+    step()
     work.map(partial(_star_rows, rows, frame_scale), tri.n_edges)
     rest = free_pts[free_pts >= lay.mid0]
     work.map(partial(_free_rows, rows, rest), rest.size)
+    step()
     max_coef = max(work.map(partial(_fast_rows, rows), ne_int), default=0.0)
+    step()
     work.map(partial(_eliminated_rows, rows, reduced), reduced.dep.size)
     max_coef = max([max_coef] + work.map(partial(_flip_rows, rows), ne_int))
+    step()
     M = sp.csr_array((rows.data, rows.indices, indptr), shape=(npts, n_free))
     _sparse.sort_indices(M, work)
     M.eliminate_zeros()
+    step()
     return M, max_coef
+
+
+#: The steps :func:`assemble` reports (lengths, allocation, stars and free rows, fast rows, the rest, sorting).
+ASSEMBLY_STEPS = 6
 
 
 def _reduced_rows(elim: Eliminated, free_of_point: np.ndarray) -> _ReducedRows:

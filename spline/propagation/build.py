@@ -22,6 +22,7 @@ from ..net import NetLayout, layout_of, point_index
 from ..tolerances import EXACT_PIVOT_TOL, INNER_PIVOT_WEIGHT, SINGULAR_TOL, SNAP_TOL
 from ..topology import Triangulation
 from ..util import memory as _memory, parallel as _parallel
+from ..util.progress import Report, silent, span
 from ..util.timer import StageTimer
 from .assembly import assemble
 from .diamonds import diamond_ids, diamonds, flip_pair, frame_scales
@@ -38,6 +39,7 @@ def build_space(
     inner_weight: float = INNER_PIVOT_WEIGHT,
     snap_tol: float = SNAP_TOL,
     exact_tol: float = EXACT_PIVOT_TOL,
+    report: Report | None = None,
 ) -> SplineSpace:
     """Build the free-to-control map of the C1 quintic spline space.
 
@@ -53,6 +55,8 @@ def build_space(
         (:data:`~trispline.spline.tolerances.SNAP_TOL`; 0 moves none)
     exact_tol : vertex systems with a smaller pivot are eliminated again in double-double
         (:data:`~trispline.spline.tolerances.EXACT_PIVOT_TOL`)
+    report : ``report(fraction)`` as the steps end (:data:`BUILD_SHARES`; writing ``M``, ~3/4 of the
+        time, step by step)
 
     Returns
     -------
@@ -66,7 +70,8 @@ def build_space(
     ``M`` run on ranges of edges in a thread per core; every range writes its
     own entries, so the result does not depend on the thread count.
     """
-    clock = StageTimer()
+    report = report or silent
+    clock = StageTimer(lambda name, _seconds: report(BUILD_SHARES[name]))
     tri = uv if isinstance(uv, Triangulation) else Triangulation(uv, faces)
     _ = tri.edges, tri.edge_faces, tri.face_edges
     clock("triangulation")
@@ -86,13 +91,20 @@ def build_space(
         free_pts, free_of_point = _free_points(tri, lay, bad_v, is_free, elim)
         n_free = 3 * tri.n_vertices + free_pts.size
         clock("free_points")
-        M, max_coef = assemble(work, tri, lay, c2, bad_v, frame_scale, free_pts, free_of_point, n_free, length, elim)
+        M, max_coef = assemble(work, tri, lay, c2, bad_v, frame_scale, free_pts, free_of_point, n_free, length, elim,
+                               span(report, BUILD_SHARES["free_points"], BUILD_SHARES["write_M"]))
         clock("write_M")
         pidx = pidx_job.result()
     space = _space(tri, lay, M, pidx, frame_scale, free_pts, elim, snapped, max(max_coef, elim.max_coef),
                    clock.timings)
     clock("finish")
     return space
+
+
+#: :func:`build_space`'s progress at the end of each step: their shares of the time at 200k faces (writing
+#: ``M`` 0.45 of 0.6 s).
+BUILD_SHARES = {"triangulation": 0.02, "snap": 0.06, "diamonds": 0.16, "classify": 0.18, "elimination": 0.24,
+                "free_points": 0.26, "write_M": 0.97, "finish": 1.0}
 
 
 def _snapped(tri: Triangulation, snap_tol: float) -> tuple[Triangulation, np.ndarray, Snap]:

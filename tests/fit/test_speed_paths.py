@@ -335,6 +335,13 @@ def test_fit_with_progress_fractions():
     # the compiled step reports as each of its two host solves ends, before the stage's end
     solve = [c[2] for c in calls if c[0] == SOLVE]
     assert solve == [0.45, 0.9, None]
+    # every stage reports within itself: the map's steps, the space's steps and M's, the analysis (the numerical
+    # factorisation's share written too where it lasts: tests/fit/test_progress_watch.py), the finish
+    for stage in FIT_STAGES:
+        inside = [c[2] for c in calls if c[0] == stage and c[2] is not None]
+        assert len(inside) >= (1 if stage == "factor" else 2), (stage, inside)
+        assert inside == sorted(inside) and 0 < inside[0] and inside[-1] <= 1, (stage, inside)
+    assert len([c for c in calls if c[0] == "build" and c[2] is not None]) >= 8 + 6  # its steps and M's
     two = []
     V2, F2 = synthetic_scan(200)
     fit_surface(V2, F2, progress=lambda stage, seconds: two.append(stage))
