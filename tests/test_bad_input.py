@@ -872,3 +872,32 @@ def test_slivers_made_by_the_map_are_replaced_or_refused_naming_the_map(tmp_path
     assert "--param auto" in str(e.value) and "collapse or remove" not in str(e.value)
     with pytest.raises(MeshError, match="collapse or remove"):  # without the mesh: its own slivers
         refuse_slivers(lscm, F)
+
+
+def test_an_interrupt_inside_the_bar_s_update_waits_for_its_end(capfd, monkeypatch):
+    """Raised inside tqdm, between its lock's acquisitions, an interrupt left the lock held; the bar's ticker
+    thread then waited for it for ever and the command hung at exit (seen once in the suite). Inside the bar's
+    own updates the interrupt is remembered and raised when the update ends."""
+    import signal as _signal
+
+    from trispline.fit.cli.common import Interrupts, Stages
+
+    undo = Interrupts.install()
+    try:
+        bar = Stages(("a", "b"), "test", disable=False)
+        real = bar.bar.update
+
+        def update(n: int) -> None:
+            Interrupts.handler(_signal.SIGINT, None)  # the signal lands inside tqdm's update
+            real(n)
+
+        monkeypatch.setattr(bar.bar, "update", update)
+        with pytest.raises(KeyboardInterrupt):
+            bar.at("a", 0.5)
+        assert bar.position > 0  # the update ran to its end before the interrupt was raised
+        Interrupts.pending = False
+        start = time.monotonic()
+        bar.close()
+        assert time.monotonic() - start < Stages.TICK + 1.5
+    finally:
+        undo()

@@ -22,7 +22,7 @@ from typing import Any, Callable
 from trispline.spline.tolerances import NOISE_SIGMAS
 
 from ..errors import UsageError
-from .common import EXIT_CHECK, EXIT_OK, PROG, UI, fmt, positive_float, positive_int
+from .common import EXIT_CHECK, EXIT_OK, PROG, UI, Interrupts, fmt, positive_float, positive_int
 
 __all__ = ["add_options", "requested", "run", "NOISE_SIGMAS"]
 
@@ -88,15 +88,17 @@ class _Bar:
     def __call__(self, stage: str, info: dict) -> None:
         rec = info.get("record")
         if rec is None:
-            self.bar.set_description_str(f"approximate: {stage} done", refresh=False)
+            desc = f"approximate: {stage} done"
         else:
             tol = "" if rec["tolerance"] is None else f" (tolerance {rec['tolerance']:.3g})"
-            self.bar.set_description_str(f"approximate: round {rec['round']}, {rec['vertices']} vertices, "
-                                         f"max deviation {rec['max']:.3g}{tol}", refresh=False)
-        self.bar.update(0)  # shown once the work has taken over a second (tqdm's delay)
+            desc = f"approximate: round {rec['round']}, {rec['vertices']} vertices, max deviation {rec['max']:.3g}{tol}"
+        with Interrupts.held():  # an interrupt inside tqdm could leave its lock held
+            self.bar.set_description_str(desc, refresh=False)
+            self.bar.update(0)  # shown once the work has taken over a second (tqdm's delay)
 
     def close(self) -> None:
-        self.bar.close()
+        with Interrupts.held():
+            self.bar.close()
 
 
 def _approximate(args: argparse.Namespace, ui: UI, mesh: Any, weights: Any) -> tuple[Any, float]:

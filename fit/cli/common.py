@@ -8,6 +8,7 @@ Nothing here imports JAX.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import sys
@@ -15,7 +16,7 @@ import threading
 import traceback
 import warnings
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 
@@ -81,14 +82,33 @@ class Interrupts:
     callback (JAX's ``_xla_gc_callback``: "Exception ignored in ..."), a ``__del__`` -- it is raised again at
     the next progress report in the main thread (:meth:`check`) or when the command returns; the swallowed
     one prints nothing. Measured before: a SIGINT landing in JAX's start-up under load let the fit finish
-    (exit 0, a traceback on stderr) in 4 of 8 tries."""
+    (exit 0, a traceback on stderr) in 4 of 8 tries. Inside :meth:`held` (the progress bar's own updates) it
+    is only remembered, and raised when the block ends: raised inside tqdm, between its lock's acquisitions,
+    it left the lock held, and the bar's ticker thread waited for it for ever (the command hung at exit)."""
 
     pending = False
+    holding = 0
 
     @classmethod
     def handler(cls, signum: int, frame: object) -> None:
         cls.pending = True
+        if cls.holding and threading.current_thread() is threading.main_thread():
+            return
         raise KeyboardInterrupt
+
+    @classmethod
+    @contextlib.contextmanager
+    def held(cls) -> Iterator[None]:
+        """A block of the main thread that an interrupt must not cut (it is raised when the block ends)."""
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+        cls.holding += 1
+        try:
+            yield
+        finally:
+            cls.holding -= 1
+        cls.check()
 
     @classmethod
     def check(cls) -> None:
@@ -166,9 +186,10 @@ class Stages:
     def _move(self, position: int) -> None:
         Interrupts.check()
         if position > self.position:
-            self.bar.set_description_str(self._desc(), refresh=False)
-            self.bar.update(position - self.position)
-            self.position = position
+            with Interrupts.held():
+                self.bar.set_description_str(self._desc(), refresh=False)
+                self.bar.update(position - self.position)
+                self.position = position
 
     def done(self, name: str | None = None) -> None:
         """Mark the current (or the named) stage finished."""
@@ -187,11 +208,12 @@ class Stages:
 
     def close(self) -> None:
         self._stop.set()
-        if self._ticker is not None:
-            self._ticker.join()
-        if self._shown:  # tqdm clears only a bar that its own updates drew: else an interrupt's line ends the bar's
-            self.bar.last_print_t = max(self.bar.last_print_t, self.bar.start_t + self.bar.delay)
-        self.bar.close()
+        with Interrupts.held():
+            if self._ticker is not None:
+                self._ticker.join(self.TICK + 1.0)  # bounded: a daemon thread, never a reason to hang
+            if self._shown:  # tqdm clears only a bar its own updates drew: else an interrupt's line ends the bar's
+                self.bar.last_print_t = max(self.bar.last_print_t, self.bar.start_t + self.bar.delay)
+            self.bar.close()
 
     def __enter__(self) -> "Stages":
         return self
