@@ -106,7 +106,7 @@ def _obj_arrays(data: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray | None,
         if slashed and (T is None or b"//" in block):
             return None
         I = _table(block.replace(b"/", b" ").split(b"\n") if slashed else faces, np.int64)
-    except ValueError:
+    except (ValueError, OverflowError):  # an index beyond int64 too: the line-by-line reader names it
         return None
     per = I.shape[1] // 3
     if V.shape[1] < 3 or (T is not None and T.shape[1] < 2) or I.shape[1] != 3 * per or per != (2 if slashed else 1) \
