@@ -59,8 +59,11 @@ def thread_page_faults(tids: set[int], prefixes: tuple[str, ...] = ()) -> int | 
 
 
 def page_size() -> int:
-    """Bytes of a memory page."""
-    return int(os.sysconf("SC_PAGE_SIZE"))
+    """Bytes of a memory page (4096 where the system does not say: Windows has no ``sysconf``)."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, ValueError, OSError):  # pragma: no cover - not POSIX
+        return 4096
 
 
 def format_bytes(n: float) -> str:
