@@ -90,3 +90,10 @@ def test_pardiso_factorisation_reports_the_share_of_its_factor_written(monkeypat
     assert during.max() >= 0.75  # the pages counted cover most of the factor's entries
     b = np.ones(m * m)
     np.testing.assert_allclose(H @ factor.solve(b), b, atol=1e-9)
+
+
+@pytest.mark.skipif(not HAS_PARDISO, reason="pypardiso not installed")
+def test_a_failed_factorisation_is_raised_through_the_watch():
+    A = sp.csr_matrix(np.array([[1.0, 2.0], [2.0, 1.0]]))  # indefinite
+    with pytest.raises(np.linalg.LinAlgError, match="not positive definite"):
+        SparseCholesky(A, "pardiso", report=lambda fraction: None)
