@@ -34,8 +34,8 @@ from . import energy as en
 from .energy.data import DataPoints, as_data_points
 from .errors import FitError
 from .gauss_newton import QuadraticStep, iterate
-from .progress import counting, silent, span, stage_reporter
 from .limits import check_fit_memory
+from .progress import counting, silent, span, stage_reporter
 from .solve import PatternAnalysis, check_memory, estimate_factor_bytes, release_free_heap, require_x64
 from .stages import ASSEMBLE, BUILD, FACTOR, FINISH, PARAMETERIZE, SOLVE
 from .weights import FitWeights

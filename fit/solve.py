@@ -39,7 +39,7 @@ import scipy.sparse as sp
 from trispline.spline.util.memory import available_memory, page_size, thread_page_faults
 from trispline.spline.util.spd import SPD_PARDISO_MIN, point_pypardiso_at_mkl, spd_backend
 
-from .errors import FactorMemoryError, X64Error  # noqa: F401 - the refusal of check_memory (docs)
+from .errors import X64Error
 from .limits import refuse_above
 from .progress import Report, silent, span, watching
 
@@ -147,7 +147,7 @@ def release_free_heap() -> None:
 
 
 def check_memory(estimate: int, max_bytes: int | str | None) -> None:
-    """Raise :class:`FactorMemoryError` when ``estimate`` bytes exceed ``max_bytes``.
+    """Raise :class:`~trispline.fit.errors.FactorMemoryError` when ``estimate`` bytes exceed ``max_bytes``.
 
     ``max_bytes``: bytes, ``"available"`` (:func:`trispline.spline.util.memory.available_memory`
     now) or None (no check).

@@ -99,18 +99,17 @@ def refuse_slivers(points: np.ndarray, faces: np.ndarray, *, V: np.ndarray | Non
     where the mesh's own triangles are not slivers, the message says that the map made them so, and
     to choose another (LSCM collapsed an open cylinder's tall triangles to aspect 6e12; ``auto`` fits it).
     """
-    message = sliver_message(points, faces)
-    if message and V is not None:
-        aspect = face_aspects(points, faces)
-        bad = aspect > MAX_DOMAIN_ASPECT
-        if not (bad & ~map_slivers(V, points, faces)).any():  # the map made them all
-            in_3d = float(face_aspects(V, faces[bad]).max())
-            message = (f"the {method} parameterization squeezed {int(bad.sum())} triangles into slivers too thin "
-                       f"to fit (longest edge / height up to {aspect.max():.3g}, at most {MAX_DOMAIN_ASPECT:g}; on "
-                       f"the mesh at most {in_3d:.3g}): faces {first_few(np.flatnonzero(bad))}; choose another "
-                       "parameterization (--param auto, slim or harmonic; param= in Python)")
-    if message:
-        raise MeshError(message, ["slivers"])
+    aspect = face_aspects(points, faces)
+    bad = np.flatnonzero(aspect > MAX_DOMAIN_ASPECT)
+    if not bad.size:
+        return
+    on_mesh = None if V is None else face_aspects(V, faces[bad])
+    if on_mesh is not None and (on_mesh <= MAX_DOMAIN_ASPECT).all():  # the map made them all
+        raise MeshError(f"the {method} parameterization squeezed {bad.size} triangles into slivers too thin to fit "
+                        f"(longest edge / height up to {aspect.max():.3g}, at most {MAX_DOMAIN_ASPECT:g}; on the mesh "
+                        f"at most {on_mesh.max():.3g}): faces {first_few(bad)}; choose another parameterization "
+                        "(--param auto, slim or harmonic; param= in Python)", ["slivers"])
+    raise MeshError(sliver_message(points, faces), ["slivers"])
 
 
 def zero_area_faces(V: np.ndarray, F: np.ndarray) -> np.ndarray:
