@@ -10,6 +10,7 @@ the file can hold is refused before anything is allocated.
 """
 from __future__ import annotations
 
+import io
 from itertools import islice
 from pathlib import Path
 
@@ -77,8 +78,8 @@ def read_obj(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """``(V (nv, 3), F (nf, 3), uv (nv, 2) or None)``; ``uv`` when every vertex has exactly one ``vt``.
 
     The common file (triangles ``f a b c``, or ``f a/t b/t c/t``, positive indices, one width of ``v`` and
-    ``vt`` lines) is parsed by whole arrays (:func:`_obj_arrays`: a 1M-face scan 3.8 -> 0.9 s); any other, or
-    any error, line by line (:func:`_read_obj_lines`), which names the bad line."""
+    ``vt`` lines) is parsed by whole arrays (:func:`_obj_arrays`: a 1M-face scan 4.5 -> 1.2 s); any other, or
+    any error, line by line (:func:`_read_obj_lines`, from the same bytes), which names the bad line."""
     try:
         data = path.read_bytes()
     except OSError as exc:
@@ -86,7 +87,7 @@ def read_obj(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     fast = _obj_arrays(data)
     if fast is not None:
         return _with_uv(*fast, path)
-    return _read_obj_lines(path)
+    return _read_obj_lines(path, data)
 
 
 def _obj_arrays(data: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None] | None:
@@ -108,9 +109,8 @@ def _obj_arrays(data: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray | None,
         I = _table(block.replace(b"/", b" ").split(b"\n") if slashed else faces, np.int64)
     except (ValueError, OverflowError):  # an index beyond int64 too: the line-by-line reader names it
         return None
-    per = I.shape[1] // 3
-    if V.shape[1] < 3 or (T is not None and T.shape[1] < 2) or I.shape[1] != 3 * per or per != (2 if slashed else 1) \
-            and not (slashed and per == 3):
+    per = I.shape[1] // 3  # numbers per corner: v, or v/t (v/t/n)
+    if V.shape[1] < 3 or (T is not None and T.shape[1] < 2) or I.shape[1] % 3 or per not in ((2, 3) if slashed else (1,)):
         return None
     I = I.reshape(-1, 3, per) - 1
     F, FT = I[:, :, 0], (I[:, :, 1] if slashed else None)
@@ -128,14 +128,17 @@ def _table(rows: list[bytes], dtype: type) -> np.ndarray:
     return np.array(b" ".join(rows).split(), dtype=dtype).reshape(len(rows), int(counts[0]))
 
 
-def _read_obj_lines(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """:func:`read_obj` line by line: every OBJ it reads (polygons, relative indices, mixed forms)."""
+def _read_obj_lines(path: Path, data: bytes | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """:func:`read_obj` line by line: every OBJ it reads (polygons, relative indices, mixed forms); ``data``:
+    the file's bytes when already read (as UTF-8, bad bytes replaced, universal newlines, as ``open`` reads)."""
     verts: list[str] = []  # lines, split later: lists would keep the garbage collector busy
     texs: list[str] = []
     fv: list[list[int]] = []
     ft: list[list[int]] = []
     has_all_vt = True
-    with open(path, encoding="utf-8", errors="replace") as fh:
+    source = (open(path, encoding="utf-8", errors="replace") if data is None
+              else io.StringIO(data.decode("utf-8", errors="replace"), newline=None))
+    with source as fh:
         try:
             for text in fh:
                 if text.startswith("v "):
