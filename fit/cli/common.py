@@ -29,6 +29,7 @@ __all__ = [
     "PROG", "EXIT_OK", "EXIT_FAILURE", "EXIT_INPUT", "EXIT_CHECK", "EXIT_INTERRUPTED", "EXIT_TERMINATED",
     "Parser", "UI", "Stages", "one_line", "fmt", "positive_int", "nonneg_float", "positive_float",
     "finite_float", "add_common", "check_output", "distinct", "load_surface", "version", "run_cli", "leave",
+    "prefetch",
 ]
 
 PROG = "trispline"
@@ -404,6 +405,32 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
         hint = "" if debug else " (run with --debug for the traceback)"
         print(f"{PROG}: internal error: {type(exc).__name__}: {one_line(str(exc))}{hint}", file=sys.stderr)
         return EXIT_FAILURE
+
+
+def prefetch(*modules: str) -> threading.Thread:
+    """Import ``modules`` in a thread beside the caller's work; returns the (started) thread.
+
+    The fit's first second is reading, checking and mapping the mesh on one core, and JAX's import
+    (~1-1.7 s, pure import work) waited behind it; now it runs on the other core meanwhile. A later
+    ``import`` of the same module in any thread simply waits for this one (Python's per-module import
+    locks). Not a daemon: a normal interpreter exit waits for it instead of ending an import midway;
+    every failure exit goes through :func:`leave` (``os._exit``), which does not wait. numpy and scipy
+    are imported here first, so the two threads share no package being imported at once.
+    """
+    import importlib
+
+    import scipy  # noqa: F401 - cheap (its submodules load lazily); see the docstring
+
+    def run() -> None:
+        for name in modules:
+            try:
+                importlib.import_module(name)
+            except Exception:  # noqa: BLE001 - the caller's own import reports it where it matters
+                return
+
+    thread = threading.Thread(target=run, name="trispline-prefetch")
+    thread.start()
+    return thread
 
 
 def leave(code: int) -> int:

@@ -34,11 +34,14 @@ from ..errors import CommandFailed, FitError, UsageError
 from ..stages import FIT_STAGES
 from ..weights import FitWeights
 from . import approximate
-from .common import EXIT_OK, UI, add_common, check_output, distinct, fmt, nonneg_float, positive_int
+from .common import EXIT_OK, UI, add_common, check_output, distinct, fmt, nonneg_float, positive_int, prefetch
 
 __all__ = ["WEIGHT_FIELDS", "WEIGHT_HELP", "FIT_STAGES", "EXAMPLE_FACES", "MAX_FIT_RINGS", "MAX_BLEND_POWER",
            "add_parsers", "cmd_fit", "cmd_demo"]
 
+#: What the fit imports for its solve, imported beside the mesh's reading and mapping (:func:`prefetch`:
+#: the CLI row of benchmarks/bench_fit_speed.py waited ~1.7 s for them on one core).
+FIT_MODULES = ("jax", "jax.numpy", "optimistix")
 #: Default faces of the built-in example scan.
 EXAMPLE_FACES = 800
 #: One flag per :class:`~trispline.fit.weights.FitWeights` field: ``(name, type of its default)``
@@ -181,6 +184,7 @@ def cmd_fit(args: argparse.Namespace, ui: UI) -> int:
         control_net=check_output(args.control_net, MESH_FORMATS, "--control-net", inputs),
     )
     distinct(list(outputs.values()))
+    prefetch(*FIT_MODULES)
     if approximate.requested(args):  # --tolerance / --tolerance-rel / --vertices: fit/cli/approximate.py
         return approximate.run(args, ui, outputs, load=_load_input, write=_write, extras=_with_fit_extras,
                                fields=WEIGHT_FIELDS)
@@ -210,6 +214,7 @@ def cmd_demo(args: argparse.Namespace, ui: UI) -> int:
     def write_scan(out, VF) -> None:
         export_mesh(VF[0], VF[1], folder / "scan.obj", outputs=out)
 
+    prefetch(*FIT_MODULES)
     try:
         data = _fit(args, ui, outputs, write_scan)
     except BaseException:

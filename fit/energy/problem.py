@@ -19,6 +19,7 @@ import scipy.sparse as sp
 from trispline.spline.propagation import SplineSpace
 from trispline.spline.topology import signed_areas
 from trispline.spline.util.memory import index_dtype
+from trispline.spline.util.parallel import once
 
 from ..weights import FitWeights
 from .context import frame_ids, term_context
@@ -69,6 +70,21 @@ class Problem:
         return U @ x + U.T @ x - U.diagonal()[:, None] * x - self.rhs
 
 
+def _space_products(space: SplineSpace, free_r: np.ndarray, V: np.ndarray
+                    ) -> tuple[sp.csr_matrix, sp.csr_matrix, np.ndarray, np.ndarray]:
+    """``(M_r, A, incidence, c0)``: ``M``'s columns of the solved unknowns ``free_r (k,)`` (CSR, sorted), its
+    rows of the patches' points ``A (21 F, k)``, their patch–unknown incidence
+    (:func:`~.normal.patch_unknowns`) and the fixed part ``c0 (n_points, 3)`` from the corners ``V``."""
+    # columns of the CSR space.M selected as CSR (sorted as they were): no CSC copy of M (50 MB at 100k
+    # faces) and 0.25 against 0.37 CPU s there; the same M_r and, with the rows' sums in the same order, c0
+    M = sp.csr_matrix(space.M)
+    M_r = sp.csr_matrix(M[:, free_r])
+    M_r.sort_indices()
+    c0 = np.asarray(M[:, space.corner_free] @ V)
+    A = M_r[np.asarray(space.point_index).ravel()]  # (21 F, k) patch points per unknown
+    return M_r, A, patch_unknowns(A), c0
+
+
 def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
                   data_points: DataPoints | None = None, report: Report | None = None,
                   on_pattern: Callable[[Callable[[], sp.csr_array], Callable[[], np.ndarray | None]], None]
@@ -89,24 +105,19 @@ def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
     free_r = np.flatnonzero(~is_fixed)
     pos = np.full(space.n_free, -1, np.int64)
     pos[free_r] = np.arange(free_r.size)
-    # columns of the CSR space.M selected as CSR (sorted as they were): no CSC copy of M (50 MB at 100k
-    # faces) and 0.25 against 0.37 CPU s there; the same M_r and, with the rows' sums in the same order, c0
-    M = sp.csr_matrix(space.M)
-    M_r = sp.csr_matrix(M[:, free_r])
-    M_r.sort_indices()
-    c0 = np.asarray(M[:, space.corner_free] @ V)
-    del M
-
-    A = M_r[np.asarray(space.point_index).ravel()]  # (21 F, k) patch points per unknown
-    incidence = patch_unknowns(A)  # the pattern's and the assembly's (0.1-0.2 s at 100k faces)
+    # M's products are made by the first to need them: the analysis thread, beside the local fits, which
+    # read only the mesh and its uv (the main thread made them alone before: 0.5 s on one core at 100k faces)
+    products = once(partial(_space_products, space, free_r, np.asarray(V)))
     if on_pattern is not None:  # made where it is used: PatternAnalysis makes it in its own thread
-        on_pattern(partial(upper_pattern, A, incidence), partial(patch_ordering, incidence))
+        on_pattern(lambda get=products: upper_pattern(*get()[1:3]), lambda get=products: patch_ordering(get()[2]))
     ctx = term_context(space, V, weights, data_points=data_points, report=span(report, 0.0, 0.7),
                        curved_outline=curved_outline)
     terms = setup_terms(ctx)
     frame_pos = pos[frame_ids(space, ctx.frame_vertices)]
     parts = normal_parts(terms, space.tri.n_faces, frame_pos.size)
     span(report, 0.0, 0.8)(1.0)
+    M_r, A, incidence, c0 = products()
+    del products
     H_upper, rhs = normal_equations(A, c0[np.asarray(space.point_index).ravel()], frame_pos, parts, upper=True,
                                     report=span(report, 0.8, 0.95), incidence=incidence, release=True)
     del incidence

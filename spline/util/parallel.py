@@ -15,9 +15,11 @@ import os
 import sys
 import threading
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import Any, Callable, Iterator
+from typing import Any, Callable, Iterator, TypeVar
 
 import numpy as np
+
+T = TypeVar("T")
 
 #: Items per range: big enough that Python overhead per range is noise, small
 #: enough that a range's temporaries stay in cache (~1 MB per float64 column).
@@ -108,6 +110,22 @@ def map_reporting(work: Workers, fn: Callable[[int, int], Any], n: int, chunk: i
         if report is not None:
             report(hi / max(n, 1))
     return out
+
+
+def once(make: Callable[[], T]) -> Callable[[], T]:
+    """``make()`` computed by the first caller, from whichever thread; callers meanwhile wait for it,
+    later ones get the same value. A call that raises leaves nothing behind (the next caller tries
+    again and meets the same error in its own thread)."""
+    lock = threading.Lock()
+    box: list[T] = []
+
+    def get() -> T:
+        with lock:
+            if not box:
+                box.append(make())
+            return box[0]
+
+    return get
 
 
 _blas_lock = threading.Lock()

@@ -256,6 +256,21 @@ def test_light_commands_do_not_import_jax(meshes, tmp_path):
     assert r.returncode == 0, r.stderr
 
 
+def test_fit_prefetches_jax_beside_reading_the_mesh_and_still_fails_fast(tmp_path):
+    """``fit`` imports JAX in a thread while it reads the mesh; a bad mesh still ends at once with exit 2."""
+    from trispline.fit.cli.common import prefetch
+
+    thread = prefetch("json", "no_such_module_xyz")  # a missing module ends the thread, raises nowhere
+    thread.join(30)
+    assert not thread.is_alive() and "json" in sys.modules
+    bad = tmp_path / "bad.obj"
+    bad.write_text("v 0 0 0\nv 1 0 0\nf 1 2 3\n")  # a face naming a vertex that does not exist
+    r = subprocess.run([sys.executable, "-m", "trispline.fit", "fit", str(bad), "-o", str(tmp_path / "s.npz")],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and r.stderr.count("error:") == 1 and "Traceback" not in r.stderr, r.stderr
+    assert not (tmp_path / "s.npz").exists()
+
+
 # ------------------------------------------------------------ check, export (no fit)
 @pytest.fixture(scope="module")
 def c1_file(tmp_path_factory) -> Path:

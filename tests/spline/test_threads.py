@@ -19,6 +19,40 @@ def test_ranges_cover_once_in_order(n, chunk):
     assert all(0 < hi - lo <= chunk for lo, hi in r)
 
 
+def test_once_computes_one_value_for_all_threads_and_retries_after_an_error():
+    import threading
+    import time
+
+    calls = []
+
+    def make():
+        calls.append(threading.get_ident())
+        time.sleep(0.05)  # the other threads arrive meanwhile and must wait, not compute again
+        return object()
+
+    get = _parallel.once(make)
+    got = []
+    threads = [threading.Thread(target=lambda: got.append(get())) for _ in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert len(calls) == 1 and len(got) == 4 and all(g is got[0] for g in got) and get() is got[0]
+
+    tries = []
+
+    def flaky():
+        tries.append(1)
+        if len(tries) == 1:
+            raise RuntimeError("first try")
+        return 7
+
+    get = _parallel.once(flaky)
+    with pytest.raises(RuntimeError, match="first try"):
+        get()
+    assert get() == 7 and get() == 7 and len(tries) == 2
+
+
 def test_workers_map_returns_in_order_and_raises(monkeypatch):
     monkeypatch.setattr(_parallel, "PARALLEL_MIN", 1)
     with _parallel.Workers(100) as work:
