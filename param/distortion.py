@@ -33,6 +33,86 @@ def fold_mask(uv: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return flipped, degenerate
 
 
+def outline_crossings(uv: np.ndarray, loops: list[np.ndarray]) -> int:
+    """How many pairs of the boundary ``loops``' segments (vertex ids into ``uv (nv, 2)``) cross or touch
+    (0: the map is one-to-one where it is fold-free). A fold-free map can still cover part of the plane
+    twice -- LSCM winds a three-turn helicoid strip three times around its centre -- which a fit over
+    its triangles does not mind but anything that locates points in uv does (the approximation's coarse
+    triangulation). Segments sharing a vertex id are not compared; touching within
+    :data:`TOUCH_RTOL` of the outline's extent counts. Own code, not Triangle's: Triangle crashes or
+    fails on exactly such outlines (segments between duplicated points, nearly collinear overlaps).
+    """
+    ids = np.concatenate([np.asarray(l, np.int64) for l in loops]) if loops else np.zeros(0, np.int64)
+    if ids.size < 3:
+        return 0
+    sizes = np.array([len(l) for l in loops])
+    start = np.repeat(np.cumsum(sizes) - sizes, sizes)
+    nxt = start + (np.arange(ids.size) - start + 1) % np.repeat(sizes, sizes)
+    a, b = np.asarray(uv, float)[ids], np.asarray(uv, float)[ids[nxt]]
+    i, j = _near_segment_pairs(a, b)
+    keep = (ids[i] != ids[j]) & (ids[i] != ids[nxt[j]]) & (ids[nxt[i]] != ids[j]) & (ids[nxt[i]] != ids[nxt[j]])
+    i, j = i[keep], j[keep]
+    eps = TOUCH_RTOL * max(float(np.ptp(np.r_[a, b], axis=0).max()), np.finfo(float).tiny)
+
+    def side(p, q, r):  # signed distance of r from the line p -> q (the segment's length in the unit)
+        d = q - p
+        return (d[:, 0] * (r[:, 1] - p[:, 1]) - d[:, 1] * (r[:, 0] - p[:, 0])) / np.maximum(
+            np.hypot(d[:, 0], d[:, 1]), np.finfo(float).tiny)
+
+    s1, s2 = side(a[i], b[i], a[j]), side(a[i], b[i], b[j])
+    s3, s4 = side(a[j], b[j], a[i]), side(a[j], b[j], b[i])
+    crossing = (s1 * s2 <= 0) & (s3 * s4 <= 0)
+    # collinear pairs (all four within eps of each other's lines) cross only where their extents overlap
+    flat = (np.abs(s1) <= eps) & (np.abs(s2) <= eps)
+    if flat.any():
+        d = b[i] - a[i]
+        ta, tb = ((a[j] - a[i]) * d).sum(1), ((b[j] - a[i]) * d).sum(1)  # positions along segment i
+        lo, hi = np.minimum(ta, tb), np.maximum(ta, tb)
+        crossing &= ~flat | ((hi >= -eps * np.hypot(*d.T)) & (lo <= (d * d).sum(1) + eps * np.hypot(*d.T)))
+    near = (np.minimum.reduce([np.abs(s1), np.abs(s2), np.abs(s3), np.abs(s4)]) <= eps)
+    return int(np.count_nonzero(crossing | (near & _endpoint_touches(a[i], b[i], a[j], b[j], eps))))
+
+
+#: Boundary segments closer than this fraction of the outline's extent touch (:func:`outline_crossings`).
+TOUCH_RTOL = 1e-12
+
+
+def _endpoint_touches(a1: np.ndarray, b1: np.ndarray, a2: np.ndarray, b2: np.ndarray, eps: float) -> np.ndarray:
+    """``(m,)``: an end of one segment lies within ``eps`` of the other segment (a T-touch)."""
+    def dist(p, a, b):
+        d = b - a
+        t = np.clip(((p - a) * d).sum(1) / np.maximum((d * d).sum(1), np.finfo(float).tiny), 0.0, 1.0)
+        return np.hypot(*(a + t[:, None] * d - p).T)
+
+    return np.minimum.reduce([dist(a2, a1, b1), dist(b2, a1, b1), dist(a1, a2, b2), dist(b1, a2, b2)]) <= eps
+
+
+def _near_segment_pairs(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs ``(i, j)``, ``i < j``, of segments ``a -> b (n, 2)`` that may meet: each is sampled at half a
+    cell (the median segment length) and two segments are a pair where their samples fall in neighbouring
+    cells (any common point is within a quarter cell of a sample on each)."""
+    length = np.hypot(*(b - a).T)
+    h = max(float(np.median(length)), float(np.ptp(np.r_[a, b], axis=0).max()) * 1e-9, np.finfo(float).tiny)
+    count = np.ceil(length / (0.5 * h)).astype(np.int64) + 1
+    seg = np.repeat(np.arange(a.shape[0]), count)
+    t = (np.arange(seg.size) - np.repeat(np.cumsum(count) - count, count)) / np.repeat(count - 1, count)
+    cell = np.floor((a[seg] + t[:, None] * (b - a)[seg]) / h).astype(np.int64)
+    cell -= cell.min(0)
+    width = int(cell[:, 1].max()) + 3
+    own = np.unique(np.column_stack([(cell[:, 0] + 1) * width + cell[:, 1] + 1, seg]), axis=0)  # (cell, seg)
+    shifts = np.array([dx * width + dy for dx in (-1, 0, 1) for dy in (-1, 0, 1)])
+    probe = np.column_stack([(own[:, 0][:, None] + shifts).ravel(), np.repeat(own[:, 1], shifts.size)])
+    order = np.argsort(own[:, 0], kind="stable")
+    cells, segs = own[order, 0], own[order, 1]
+    lo = np.searchsorted(cells, probe[:, 0], "left")
+    hi = np.searchsorted(cells, probe[:, 0], "right")
+    n = hi - lo
+    i = np.repeat(probe[:, 1], n)
+    j = segs[np.repeat(lo, n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)]
+    pairs = np.unique(np.column_stack([np.minimum(i, j), np.maximum(i, j)])[i != j], axis=0)
+    return pairs[:, 0], pairs[:, 1]
+
+
 def face_jacobians(V: np.ndarray, F: np.ndarray, uv: np.ndarray) -> np.ndarray:
     """Jacobians ``(nf, 2, 2)`` of the affine map from each 3D face (in a local
     orthonormal frame of its plane) to its uv triangle."""

@@ -20,7 +20,7 @@ from trispline.spline.tolerances import ANGLE_DISTORTION_WARN
 from trispline.spline.topology import signed_areas
 from trispline.spline.util.progress import Report, silent, span
 
-from .distortion import face_distortion, fold_mask, score, summarize, warning
+from .distortion import face_distortion, fold_mask, outline_crossings, score, summarize, warning
 from .domain import UVTransform, normalise
 from .errors import MeshError
 from .methods import MAPS, raw_map
@@ -119,6 +119,7 @@ def parameterize(
     uv: np.ndarray | None = None,
     repair: bool = True,
     smooth: bool = DEFAULT_SMOOTH,
+    embedded: bool = False,
     report: Report | None = None,
 ) -> Parameterization:
     """Map an open genus-0 mesh to a fold-free planar triangulation.
@@ -150,6 +151,11 @@ def parameterize(
         the discrete map's vertex-to-vertex irregularity (:mod:`trispline.param.smooth`); the
         result is checked for folds and falls back to the map itself. Not for ``method="uv"``
         (the given coordinates are kept as they are). Default :data:`DEFAULT_SMOOTH`.
+    embedded : bool
+        The map must also be one-to-one: a fold-free map whose outline crosses itself (it covers part
+        of the plane twice: :func:`~trispline.param.distortion.outline_crossings`) gives way to the least
+        sheared harmonic or SLIM map that does not (``repaired`` names it), or raises (``uv``: always).
+        The interpolating fit does not need it; anything that locates points in uv does.
     report : ``report(fraction)``, optional
         Progress as the steps end (the map, its smoothing, a repair; SLIM after each iteration):
         at 200k faces a folded LSCM map takes ~25 s to replace.
@@ -167,7 +173,8 @@ def parameterize(
         raise MeshError(f"uv was given but method is {method!r}; use method='uv'", ["method"])
     vm = validate_mesh(V, F)
     report = report or silent
-    p = _auto(vm, repair, smooth, report) if method == "auto" else _single(vm, method, uv, repair, smooth, report)
+    p = (_auto(vm, repair, smooth, report, embedded) if method == "auto"
+         else _single(vm, method, uv, repair, smooth, report, embedded))
     report(1.0)
     return p
 
@@ -177,7 +184,7 @@ _MAP_DONE, _SMOOTH_DONE, _REPAIR_DONE = 0.3, 0.45, 0.95
 
 
 def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
-            smooth: bool = DEFAULT_SMOOTH, report: Report = silent) -> Parameterization:
+            smooth: bool = DEFAULT_SMOOTH, report: Report = silent, embedded: bool = False) -> Parameterization:
     """:func:`parameterize` with one map of :data:`~trispline.param.methods.MAPS`."""
     messages = list(vm.messages)
     raw = raw_map(vm, method, uv, span(report, 0.0, _MAP_DONE))
@@ -199,8 +206,16 @@ def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
                                    span(report, _SMOOTH_DONE, _REPAIR_DONE))
     if repaired is None:
         raw, repaired = _unsliver(vm, raw, method, repair, messages, span(report, _SMOOTH_DONE, _REPAIR_DONE))
+    if embedded:
+        raw, repaired = _unoverlap(vm, raw, method, repaired, messages, span(report, _SMOOTH_DONE, _REPAIR_DONE))
+    elif method == "uv" and (crossings := outline_crossings(raw, vm.boundary_loops)):
+        messages.append(f"the uv cover part of the plane more than once (their outline crosses itself at "
+                        f"{crossings} points): the fit does not mind, but a point (u, v) there names more "
+                        "than one point of the surface")
     if smooth and repaired in ("harmonic", "slim"):  # a map that replaced a worse repair
-        raw, smoothing = _smoothed(vm, raw, repaired, messages)
+        smoothed, info = _smoothed(vm, raw, repaired, messages)
+        if not (embedded and outline_crossings(smoothed, vm.boundary_loops)):  # kept unsmoothed where it crosses
+            raw, smoothing = smoothed, info
     report(_REPAIR_DONE)
     uvn, centre, scale = normalise(raw)
     _refuse_folds(uvn, vm.F, method, repaired)
@@ -235,7 +250,8 @@ def _good(p: Parameterization) -> bool:
     return _folds(p) == 0 and p.distortion["score"] <= ANGLE_DISTORTION_WARN
 
 
-def _auto(vm: ValidatedMesh, repair: bool, smooth: bool, report: Report = silent) -> Parameterization:
+def _auto(vm: ValidatedMesh, repair: bool, smooth: bool, report: Report = silent,
+          embedded: bool = False) -> Parameterization:
     """``method="auto"``: LSCM when it is good, else the least distorted map, fold-free first."""
     tried: dict[str, Parameterization] = {}
     failed: dict[str, str] = {}
@@ -244,7 +260,7 @@ def _auto(vm: ValidatedMesh, repair: bool, smooth: bool, report: Report = silent
             break
         try:
             tried[name] = _single(vm, name, None, repair, smooth,
-                                  span(report, k / len(AUTO_ORDER), (k + 1) / len(AUTO_ORDER)))
+                                  span(report, k / len(AUTO_ORDER), (k + 1) / len(AUTO_ORDER)), embedded)
         except MeshError as exc:
             failed[name] = str(exc).splitlines()[0]
     if not tried:
@@ -322,10 +338,30 @@ def _unsliver(vm: ValidatedMesh, raw: np.ndarray, method: str, repair: bool, mes
     return alt[0], alt[1]
 
 
-def _global_alternative(vm: ValidatedMesh, method: str, report: Report = silent
+def _unoverlap(vm: ValidatedMesh, raw: np.ndarray, method: str, repaired: str | None, messages: list[str],
+               report: Report = silent) -> tuple[np.ndarray, str | None]:
+    """``(map, repair name)``: ``raw`` when its outline does not cross itself, else the least sheared
+    one-to-one harmonic or SLIM map (:func:`_global_alternative`); raises where there is none, and for
+    the caller's own ``uv``."""
+    crossings = outline_crossings(raw, vm.boundary_loops)
+    if not crossings:
+        return raw, repaired
+    what = f"the {repaired or method} map overlaps itself (its outline crosses itself at {crossings} points)"
+    alt = None if method == "uv" else _global_alternative(vm, method, report, embedded=True)
+    if alt is None:
+        raise MeshError(f"{what}, and a one-to-one map is needed"
+                        + (": give uv that cover no point twice, or map the mesh with a method (lscm, harmonic, slim)"
+                           if method == "uv" else "; no fold-free harmonic or SLIM map was found either"),
+                        ["overlap"])
+    messages.append(f"{what}; replaced with the {alt[1]} map")
+    return alt[0], alt[1]
+
+
+def _global_alternative(vm: ValidatedMesh, method: str, report: Report = silent, embedded: bool = False
                         ) -> tuple[np.ndarray, str, float] | None:
     """``(map, name, score)`` of the least sheared of the harmonic and SLIM maps other than ``method``
-    that neither fold nor make slivers (:func:`~trispline.param.validate.map_slivers`), or None.
+    that neither fold nor make slivers (:func:`~trispline.param.validate.map_slivers`), nor, where
+    ``embedded``, cross their own outline (:func:`~trispline.param.distortion.outline_crossings`), or None.
     Why: an Enneper surface's LSCM folded one triangle; its composite-harmonic
     repair had a triangle sheared 3e8-fold, which the fit could not factor; its harmonic map fits
     (issue 17). Halftunnel's LSCM folded one triangle; the repair (score 9.8) left 46 patches above 20x
@@ -342,7 +378,8 @@ def _global_alternative(vm: ValidatedMesh, method: str, report: Report = silent
         if signed_areas(uv, vm.F).sum() < 0:
             uv = uv * np.array([-1.0, 1.0])
         if (np.isfinite(uv).all() and not np.logical_or(*fold_mask(uv, vm.F)).any()
-                and not map_slivers(vm.V, uv, vm.F).any()):
+                and not map_slivers(vm.V, uv, vm.F).any()
+                and not (embedded and outline_crossings(uv, vm.boundary_loops))):
             s = score(summarize(*face_distortion(vm.V, vm.F, uv)))
             if best is None or s < best[2]:
                 best = (uv, alt, s)

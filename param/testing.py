@@ -45,6 +45,20 @@ def bumpy_disk(n_faces: int, *, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return lift(*polar_disk(n_rings, seed=seed))
 
 
+def helicoid_strip(turns: float = 3.0, n_around: int = 200, n_across: int = 6, *, pitch: float = 0.1
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """A narrow helicoidal ramp (radius 1 to 1.3) of ``turns`` turns, a grid of ``n_around x n_across``
+    vertices: a valid disk whose conformal (LSCM) map winds around its centre once per turn and so
+    covers part of the plane several times, as does its ``(x, y)``."""
+    t = np.linspace(0.0, 2 * np.pi * turns, n_around)
+    w = np.linspace(0.0, 0.3, n_across)
+    T, W = np.meshgrid(t, w, indexing="ij")
+    V = np.column_stack([((1 + W) * np.cos(T)).ravel(), ((1 + W) * np.sin(T)).ravel(), (pitch * T).ravel()])
+    idx = np.arange(n_around * n_across).reshape(n_around, n_across)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
+    return V, np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+
+
 def nearly_closed(n_points: int = 2000, *, opening: float = 0.35, holes: int = 2,
                   seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """A unit sphere of ``n_points`` jittered Fibonacci points, opened by a cap of angular radius

@@ -238,21 +238,22 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray
     and the surface goes back onto it at the end (:func:`_user_net`). Otherwise the scan is
     parameterized as :func:`_smoothed` sees it. A folded LSCM map is not repaired (on a large
     noisy scan the repair can take minutes and distorts the whole map): the harmonic map of the
-    same smoothed scan replaces it.
+    same smoothed scan replaces it. The map must be one-to-one (``embedded``: the coarse domain is a
+    triangulation of the region it covers); one that covers part of the plane twice is replaced too.
     """
     from trispline.param import MeshError, parameterize
 
     if uv is not None or param == "uv":
         uv = None if uv is None else as_array(uv, "uv", (V.shape[0], 2), finite=True)
-        p = parameterize(V, F, method="uv", uv=uv)
+        p = parameterize(V, F, method="uv", uv=uv, embedded=True)
         return p.uv, p.faces, p
     X = _smoothed(V, F)
     try:
-        p = parameterize(X, F, method=param, repair=param != "lscm")
+        p = parameterize(X, F, method=param, repair=param != "lscm", embedded=True)
     except MeshError as exc:
         if "folded" not in exc.kinds:
             raise
-        p = parameterize(X, F, method="harmonic")
+        p = parameterize(X, F, method="harmonic", embedded=True)
         p.messages.append(f"the lscm map folded; the harmonic map is used instead ({str(exc).splitlines()[0]})")
     return p.uv, p.faces, p
 

@@ -126,6 +126,7 @@ def _summary(args: argparse.Namespace, result: Any, mesh: Any, seconds: float) -
     return dict(
         command="fit", mode="approximate", input=mesh.source, outputs=[], scan_vertices=int(mesh.V.shape[0]),
         scan_faces=int(mesh.F.shape[0]), vertices=st["vertices"], patches=st["patches"], param=args.param,
+        param_used=result.parameterization.repaired or result.parameterization.method,
         corners=result.settings["corners"], loss=result.settings["loss"], tolerance=st["tolerance"],
         budget=st["budget"], met=st["met"], stop=st["stop"], deviation=st["deviation"],
         deviation_all=st["deviation_all"], rejected=st["rejected"], noise=st["noise"], rounds=result.history,
@@ -143,7 +144,9 @@ def _text(d: dict) -> str:
     e = ", ".join(f"{k} {fmt(v)}" for k, v in d["energies"].items())
     return "\n".join([
         f"approximated {d['input']}: {d['scan_vertices']} scan vertices -> {d['vertices']} spline vertices, "
-        f"{d['patches']} quintic patches (param {d['param']}, corners {d['corners']}, loss {d['loss']})",
+        f"{d['patches']} quintic patches (param {d['param']}"
+        + (f" -> {d['param_used']}" if d["param_used"] != d["param"] else "")
+        + f", corners {d['corners']}, loss {d['loss']})",
         f"  deviation of the inliers: max {fmt(dev['max'])}, RMS {fmt(dev['rms'])} ({tol}); "
         f"{d['rejected']} points rejected as outliers; {len(d['rounds'])} rounds ({d['stop']})",
         f"  energies: {e}",
@@ -161,6 +164,8 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
     mesh = load(args, ui)
     weights = _weights(args, ui, fields)
     result, seconds = _approximate(args, ui, mesh, weights)
+    for m in result.parameterization.messages:  # a map replaced (folded, overlapping), mirrored, ...
+        ui.warn(m)
     data = _summary(args, result, mesh, seconds)
     st = result.stats
     if st["tolerance"] is not None and st["tolerance"] < NOISE_SIGMAS * st["noise"]:

@@ -116,3 +116,23 @@ def test_help_lists_the_approximation_options(capsys):
     for flag in ("--tolerance", "--tolerance-rel", "--vertices", "--corners", "--loss", "--strict"):
         assert flag in text
     assert np.isfinite(1.0)
+
+
+def test_a_map_that_covers_the_plane_twice_is_replaced_or_refused(tmp_path, capsys):
+    """A helicoid ramp of three turns: LSCM winds it three times around its centre, so the approximation
+    (a triangulation of the region the map covers) takes the one-to-one SLIM or harmonic map and says so;
+    its (x, y) as uv cannot be replaced: one line, exit 2, no file (Triangle crashed here before)."""
+    from trispline.param.testing import helicoid_strip
+
+    V, F = helicoid_strip(3.0, 120, 4)
+    path = tmp_path / "ramp.obj"
+    trimesh.Trimesh(V, F, process=False).export(path)
+    out = tmp_path / "s.npz"
+    rc, stdout, err = run(capsys, "fit", path, "-o", out, "--tolerance-rel", "1e-2", "--json")
+    assert rc == 0, err
+    d = json.loads(stdout)
+    assert d["param"] == "lscm" and d["param_used"] in ("slim", "harmonic") and d["met"]
+    assert "the lscm map overlaps itself" in err
+    rc, _, err = run(capsys, "fit", path, "-o", tmp_path / "uv.npz", "--tolerance-rel", "1e-2", "--param", "uv")
+    assert rc == 2 and err.count("error:") == 1 and "overlaps itself" in err
+    assert not (tmp_path / "uv.npz").exists()

@@ -290,22 +290,24 @@ def test_budget_below_what_the_outline_needs_names_both_counts():
 
 
 def test_a_tolerance_alone_gets_a_budget_that_holds_the_outline():
-    """The default budget (10% of 128 vertices: 16) is the approximation's own choice, not the caller's:
-    below the outline's need (an open cylinder of 64 sections: 41) it grows by that need instead of
+    """The default budget (10% of 98 vertices: 16) is the approximation's own choice, not the caller's:
+    below the outline's need (a plate with nine square holes: 35) it grows by that need instead of
     refusing a run that asked for none; a budget the caller gives stays the caller's."""
-    import trimesh
+    import triangle as tr
 
     from trispline.fit.approx.domain import BoundaryBudgetError
 
-    cyl = trimesh.creation.cylinder(1.0, 3.0, sections=64)
-    F = cyl.faces[np.abs(cyl.face_normals[:, 2]) < 0.9]
-    V = np.round(np.asarray(cyl.vertices, float), 8)  # as an OBJ keeps them (the corners found depend on it)
-    used = np.unique(F)
-    remap = np.full(len(V), -1)
-    remap[used] = np.arange(used.size)
-    V, F = V[used], remap[F]
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    centres = [np.array([0.8 + 1.2 * i, 0.8 + 1.2 * j]) for i in range(3) for j in range(3)]
+    P = np.concatenate([4 * square] + [c + 0.4 * square for c in centres])
+    loop = np.column_stack([np.arange(4), (np.arange(4) + 1) % 4])
+    t = tr.triangulate({"vertices": P, "segments": np.concatenate([loop + 4 * k for k in range(10)]),
+                        "holes": np.array([c + 0.2 for c in centres])}, "pq30a0.15Q")
+    uv, F = t["vertices"], t["triangles"]
+    V = np.column_stack([uv, 0.3 * np.sin(uv[:, 0]) * np.cos(0.7 * uv[:, 1])])
+    assert len(V) == 98
     res = approximate_surface(V, F, tolerance_rel=1e-3)
-    assert res.stats["budget"] > 16 and res.stats["vertices"] > 16
+    assert res.stats["budget"] > 16 and res.stats["vertices"] > 16 and res.stats["met"]
     with pytest.raises(BoundaryBudgetError, match="a budget of 16 vertices is below what the boundary needs") as e:
         approximate_surface(V, F, tolerance_rel=1e-3, n_vertices=16)
     assert e.value.needed > 16 and res.stats["budget"] == e.value.needed + 16

@@ -6,6 +6,7 @@ import importlib
 import igl
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from trispline.param import (
     UVTransform, distortion_report, parameterize, reverse_faces, slim_uv, user_domain, validate_mesh,
@@ -233,3 +234,75 @@ def test_reverse_faces_is_the_same_patch():
     mirrored_uv = p.uv * [-1.0, 1.0]  # reversed faces are CCW in the mirrored domain
     b = SplineSurface(mirrored_uv, faces_r, ctrl_r).evaluate(fi, bary[:, [0, 2, 1]])
     np.testing.assert_allclose(a, b, rtol=0, atol=1e-13)
+
+
+# ------------------------------------------------------------------------------ maps that overlap themselves
+def test_outline_crossings_counts_where_a_map_covers_the_plane_twice():
+    from trispline.param.distortion import outline_crossings
+    from trispline.param.testing import helicoid_strip
+
+    V, F = helicoid_strip()
+    vm = validate_mesh(V, F)
+    lscm = parameterize(V, F, method="lscm")  # fold-free, wound three times around its centre
+    assert not np.logical_or(*parameterize_module.fold_mask(lscm.uv, lscm.faces)).any()
+    assert outline_crossings(lscm.uv, vm.boundary_loops) > 100
+    assert outline_crossings(parameterize(V, F, method="harmonic").uv, vm.boundary_loops) == 0
+    assert outline_crossings(V[:, :2], vm.boundary_loops) > 0  # (x, y): every turn over the first
+    ends = V[:, :2].copy()
+    ends[-6:] = ends[:6]  # both end edges on one line, their points duplicated (Triangle crashed there)
+    assert outline_crossings(ends, vm.boundary_loops) > 0
+    uv, faces = random_delaunay(200, holes=2, seed=3)
+    assert outline_crossings(uv, validate_mesh(np.c_[uv, 0 * uv[:, 0]], faces).boundary_loops) == 0
+
+
+def _brute_crossings(P: np.ndarray) -> int:
+    """Pairs of a closed polygon's edges that share no vertex and cross or touch (exact orientations)."""
+    n, count = len(P), 0
+
+    def o(p, q, r):
+        return np.sign((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]))
+
+    for i in range(n):
+        for j in range(i + 1, n):
+            if len({i, (i + 1) % n, j, (j + 1) % n}) == 4:
+                a, b, c, d = P[i], P[(i + 1) % n], P[j], P[(j + 1) % n]
+                count += bool(o(a, b, c) * o(a, b, d) <= 0 and o(c, d, a) * o(c, d, b) <= 0)
+    return count
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(4, 30), st.integers(0, 2**31 - 1), st.booleans())
+def test_outline_crossings_equal_a_brute_force_count(n, seed, star):
+    """Random polygons, simple (star-shaped) or tangled: the grid's pairs miss no crossing."""
+    from trispline.param.distortion import outline_crossings
+
+    rng = np.random.default_rng(seed)
+    if star:
+        ang = np.sort(rng.uniform(0, 2 * np.pi, n))
+        P = rng.uniform(0.5, 1.0, n)[:, None] * np.column_stack([np.cos(ang), np.sin(ang)])
+    else:
+        P = rng.normal(size=(n, 2)) * np.array([1.0, rng.uniform(0.01, 1.0)])
+    assert outline_crossings(P, [np.arange(n)]) == _brute_crossings(P)
+
+
+@pytest.mark.parametrize("method", ["lscm", "auto"])
+def test_embedded_replaces_a_map_that_overlaps_itself(method):
+    from trispline.param.distortion import outline_crossings
+    from trispline.param.testing import helicoid_strip
+
+    V, F = helicoid_strip()
+    p = parameterize(V, F, method=method, embedded=True)
+    assert outline_crossings(p.uv, validate_mesh(V, F).boundary_loops) == 0
+    assert p.repaired in ("harmonic", "slim") and any("overlaps itself" in m for m in p.messages)
+    check_domain(p, F)
+
+
+def test_embedded_refuses_the_users_uv_that_overlap_themselves():
+    from trispline.param import MeshError
+    from trispline.param.testing import helicoid_strip
+
+    V, F = helicoid_strip()
+    with pytest.raises(MeshError, match="overlaps itself.*one-to-one map is needed") as info:
+        parameterize(V, F, method="uv", embedded=True)
+    assert "overlap" in info.value.kinds
+    assert parameterize(V, F, method="uv").method == "uv"  # the interpolating fit may use them (warned)
