@@ -283,6 +283,7 @@ MESH_CASES = {  # file name: (content, message)
     **{f"garbage.{e}": (bytes(range(256)) * 8, m) for e, m in (
         ("obj", "no vertices"), ("off", "not an OFF file"), ("ply", "not a PLY file"),
         ("stl", "not an STL file"), ("glb", "cannot read"))},
+    "points.obj": (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 1\n", "has no faces (4 vertices): trispline fits triangle meshes"),
     "truncated.ply": (_good_bytes("ply")[:-100], "(truncated?)"),
     "truncated.stl": (_good_bytes("stl")[:-100], "not an STL file"),
     "truncated.glb": (_good_bytes("glb")[:-100], "cannot read"),

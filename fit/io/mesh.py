@@ -91,7 +91,10 @@ def read_mesh(path: str | Path) -> MeshData:
     V = np.ascontiguousarray(V, dtype=np.float64).reshape(-1, 3)
     F = np.ascontiguousarray(F, dtype=np.int64).reshape(-1, 3)
     if F.shape[0] == 0:
-        raise MeshError(f"{path} has no faces ({V.shape[0]} vertices)", ["empty"])
+        raise MeshError(f"{path} has no faces ({V.shape[0]} vertices)"
+                        + (": trispline fits triangle meshes; points of a height field z(x, y) can be "
+                           "triangulated in (x, y) first (e.g. scipy.spatial.Delaunay) and fitted with --param uv"
+                           if V.shape[0] >= 3 else ""), ["empty"])
     if F.min() < 0 or F.max() >= V.shape[0]:
         bad = np.flatnonzero((F < 0).any(1) | (F >= V.shape[0]).any(1))
         raise MeshError(
