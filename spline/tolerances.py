@@ -111,6 +111,11 @@ FLOOR_NEGLIGIBLE = 1e-14
 #: A tolerance below this many noise standard deviations (the scan analysis' estimate) can only
 #: be met by following the noise: the approximation warns.
 NOISE_SIGMAS = 4.5
+#: ... where the estimate is noise: neighbouring vertices' residuals about uncorrelated (the scan analysis'
+#: ``noise_correlation`` at most this; Gaussian noise -0.09, the local quadrics' model error on the shared
+#: real scans +0.26 to +0.66). Without this test six of the eight shared scans were warned at a tolerance
+#: of 1e-3 of the diagonal, which five of them met with 2-4% of their vertices.
+NOISE_CORRELATION_MAX = 0.1
 #: Gauss--Newton tolerances of a robust approximation (data normalised to unit size): a
 #: step below 1e-8 of the size moves the surface far less than any scan's noise, and the
 #: gradient then passes the fit's CONVERGED_GRAD_RTOL test (at 1e-7 it did not, with moving corners).

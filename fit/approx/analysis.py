@@ -35,7 +35,7 @@ from trispline.param import face_areas_3d
 from trispline.spline.checks import as_array
 from trispline.spline.topology import signed_areas
 
-__all__ = ["ScanAnalysis", "analyse_scan", "POINTS_PER_CELL", "CURVATURE_POINTS", "SPIKE_LEVELS"]
+__all__ = ["ScanAnalysis", "analyse_scan", "edge_correlation", "POINTS_PER_CELL", "CURVATURE_POINTS", "SPIKE_LEVELS"]
 
 #: Vertices per cell aimed at (6 unknowns per coordinate: the fit averages over about 7x more points).
 POINTS_PER_CELL = 40
@@ -96,6 +96,10 @@ class ScanAnalysis:
     points : (n, 3) the scan's vertices as given
     coarse_noise : the same estimate as ``noise`` from the curvature grid's quadrics: about ``noise`` where
         the residuals are noise, larger where they are the quadrics' model error (creases, clean curved data)
+    noise_correlation : the correlation of neighbouring vertices' (signed, leave-one-out) residuals over
+        the mesh's edges (clipped at 3 ``noise``): about -0.1 where they are noise, which is independent
+        vertex to vertex, 0.25-0.7 where they are the quadrics' model error, which varies smoothly
+        (:func:`edge_correlation`)
     """
 
     residual: np.ndarray
@@ -114,6 +118,7 @@ class ScanAnalysis:
     diagonal: float
     points: np.ndarray
     coarse_noise: float
+    noise_correlation: float = 0.0
 
     @property
     def noise_share(self) -> float:
@@ -373,4 +378,15 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
                         cell=_cell_index(uv, coarse.origin, coarse.step, coarse.shape), origin=coarse.origin,
                         step=coarse.step, shape=coarse.shape, curvature=kappa, scale=scale, scan_spacing=scan_spacing,
                         area=s3.reshape(coarse.shape), diagonal=diagonal, points=V,
-                        coarse_noise=MAD_TO_SIGMA * float(np.median(studc)))
+                        coarse_noise=MAD_TO_SIGMA * float(np.median(studc)),
+                        noise_correlation=edge_correlation(np.clip(loo, -3 * noise, 3 * noise), F))
+
+
+def edge_correlation(x: np.ndarray, F: np.ndarray) -> float:
+    """Pearson correlation ``[-1, 1]`` of ``x (n,)`` at the two ends of the edges of ``F (m, 3)`` (each
+    undirected edge of a face once per face). Measured on the residuals of :func:`analyse_scan`: Gaussian
+    noise -0.09 (2,500 and 50,000 vertices, sigma 1e-4 and 1e-3 of the diagonal), the shared real scans
+    +0.26 (lilium, snail) to +0.66 (camelhead), clean generated scans +0.30."""
+    e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    a, b = x[e[:, 0]] - x.mean(), x[e[:, 1]] - x.mean()
+    return float(np.mean(a * b) / max(float(np.sqrt(np.mean(a * a) * np.mean(b * b))), 1e-300))

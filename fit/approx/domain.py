@@ -129,6 +129,8 @@ class DomainStats:
 
     min_angle, mean_min_angle : the smallest face angle and the mean of each face's smallest (degrees)
     noise : the scan's robust noise estimate (model units); spacing : the median target spacing (3D)
+    noise_correlation : of neighbouring vertices' residuals (:attr:`~.analysis.ScanAnalysis.noise_correlation`):
+        about -0.1 where ``noise`` is noise, above 0.25 where it is the local quadrics' model error
     """
 
     n_vertices: int
@@ -141,6 +143,7 @@ class DomainStats:
     mean_min_angle: float
     noise: float
     spacing: float
+    noise_correlation: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -426,7 +429,7 @@ def _domain(scan_uv: np.ndarray, boundary: list[np.ndarray], interior: np.ndarra
     stats = DomainStats(n_vertices=int(ids.size), n_faces=int(faces.shape[0]), n_boundary=nb,
                         n_corners=int(corners.size), n_holes=len(boundary) - 1, n_scan=int(scan_uv.shape[0]),
                         min_angle=float(ang.min()), mean_min_angle=float(ang.min(1).mean()),
-                        noise=analysis.noise, spacing=float(spacing))
+                        noise=analysis.noise, spacing=float(spacing), noise_correlation=analysis.noise_correlation)
     for a in (uv, faces, ids, corners, creases, *boundary):
         a.setflags(write=False)
     dom = CoarseDomain(uv=uv, faces=faces, vertices=ids, boundary=tuple(boundary), corners=corners,

@@ -563,7 +563,8 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
                  rejected=int(state.rejected.sum()), unreached=int(np.count_nonzero(fit.unreached)),
                  vertices=int(dom.stats.n_vertices), patches=int(tri.n_faces),
                  tolerance=opt.tolerance, budget=opt.budget, met=bool(met), stop=stop, rounds=len(history),
-                 noise=float(dom.stats.noise), scale=nominal, scan_vertices=int(V.shape[0]))
+                 noise=float(dom.stats.noise), noise_correlation=float(dom.stats.noise_correlation), scale=nominal,
+                 scan_vertices=int(V.shape[0]))
     stats.update(data_weight=float(weights.data), cross_validated=opt.auto, corrections=state.corrections)
     settings = dict(loss=opt.loss, corners=opt.corners, tolerance=opt.tolerance, budget=opt.budget, scale=nominal,
                     data_weight=float(weights.data))

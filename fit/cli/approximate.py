@@ -19,7 +19,7 @@ import sys
 import time
 from typing import Any, Callable
 
-from trispline.spline.tolerances import NOISE_SIGMAS
+from trispline.spline.tolerances import NOISE_CORRELATION_MAX, NOISE_SIGMAS
 
 from ..errors import UsageError
 from .common import EXIT_CHECK, EXIT_OK, PROG, UI, Interrupts, fmt, positive_float, positive_int
@@ -129,7 +129,8 @@ def _summary(args: argparse.Namespace, result: Any, mesh: Any, seconds: float) -
         param_used=result.parameterization.repaired or result.parameterization.method,
         corners=result.settings["corners"], loss=result.settings["loss"], tolerance=st["tolerance"],
         budget=st["budget"], met=st["met"], stop=st["stop"], deviation=st["deviation"],
-        deviation_all=st["deviation_all"], rejected=st["rejected"], noise=st["noise"], rounds=result.history,
+        deviation_all=st["deviation_all"], rejected=st["rejected"], noise=st["noise"],
+        noise_correlation=st["noise_correlation"], rounds=result.history,
         weights=dataclasses.asdict(result.weights), data_weight=st["data_weight"],
         cross_validated=st["cross_validated"], energies=result.energies, iterations=int(result.iterations),
         converged=bool(result.converged), c1_residual=float(result.c1_residual),
@@ -168,7 +169,8 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
         ui.warn(m)
     data = _summary(args, result, mesh, seconds)
     st = result.stats
-    if st["tolerance"] is not None and st["tolerance"] < NOISE_SIGMAS * st["noise"]:
+    if (st["tolerance"] is not None and st["tolerance"] < NOISE_SIGMAS * st["noise"]
+            and st["noise_correlation"] <= NOISE_CORRELATION_MAX):  # else the "noise" is the quadrics' model error
         ui.warn(f"the tolerance {st['tolerance']:.3g} is below {NOISE_SIGMAS} times the scan's noise estimate "
                 f"{st['noise']:.3g}: it can only be met by following the noise")
     if st["tolerance"] is not None and not st["met"]:

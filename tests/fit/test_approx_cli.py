@@ -136,3 +136,16 @@ def test_a_map_that_covers_the_plane_twice_is_replaced_or_refused(tmp_path, caps
     rc, _, err = run(capsys, "fit", path, "-o", tmp_path / "uv.npz", "--tolerance-rel", "1e-2", "--param", "uv")
     assert rc == 2 and err.count("error:") == 1 and "overlaps itself" in err
     assert not (tmp_path / "uv.npz").exists()
+
+
+def test_no_noise_warning_on_a_clean_scan(tmp_path, capsys):
+    """A clean scan's noise estimate is the local quadrics' model error (neighbours' residuals correlate):
+    a tolerance below 4.5 of it is no sign of noise to follow, and the fit does not say so (it did on six
+    of the eight shared scans at 1e-3 of the diagonal)."""
+    s = truth_scan("bumps", 2500, sigma=0.0, outliers=0.0, seed=11)
+    path = tmp_path / "clean.ply"
+    trimesh.Trimesh(s.V, s.F, process=False).export(path)
+    rc, stdout, err = run(capsys, "fit", path, "-o", tmp_path / "s.npz", "--tolerance-rel", "2e-4", "--json")
+    d = json.loads(stdout)
+    assert rc == 0 and d["tolerance"] < 4.5 * d["noise"]  # the old test would have warned
+    assert d["noise_correlation"] > 0.1 and "noise estimate" not in err
