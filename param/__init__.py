@@ -16,7 +16,9 @@ libigl is imported by ``_igl`` only. ``trispline.param.testing`` generates meshe
 examples and benchmarks.
 """
 from ._igl import closest_points
-from .distortion import distortion_report, face_distortion, face_jacobians, fold_mask, summarize
+from .distortion import (
+    distortion_report, face_distortion, face_jacobians, fold_mask, outline_crossings, segment_crossings, summarize,
+)
 from .domain import UVTransform, normalise, reverse_faces, user_domain
 from .errors import MeshError, MeshWarning, UnreferencedVerticesWarning
 from .inspect import inspect_mesh
@@ -32,4 +34,5 @@ __all__ = [
     "DEFAULT_METHOD", "METHODS", "Parameterization", "UVTransform", "parameterize", "harmonic_uv", "slim_uv",
     "user_domain", "reverse_faces", "fill_holes", "fold_mask", "normalise", "repair_folds", "tutte",
     "distortion_report", "face_distortion", "face_jacobians", "summarize", "closest_points",
+    "outline_crossings", "segment_crossings",
 ]

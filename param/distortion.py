@@ -38,42 +38,66 @@ def outline_crossings(uv: np.ndarray, loops: list[np.ndarray]) -> int:
     (0: the map is one-to-one where it is fold-free). A fold-free map can still cover part of the plane
     twice -- LSCM winds a three-turn helicoid strip three times around its centre -- which a fit over
     its triangles does not mind but anything that locates points in uv does (the approximation's coarse
-    triangulation). Segments sharing a vertex id are not compared; touching within
-    :data:`TOUCH_RTOL` of the outline's extent counts. Own code, not Triangle's: Triangle crashes or
-    fails on exactly such outlines (segments between duplicated points, nearly collinear overlaps).
+    triangulation). Segments sharing a vertex id are not compared (:func:`segment_crossings`).
     """
     ids = np.concatenate([np.asarray(l, np.int64) for l in loops]) if loops else np.zeros(0, np.int64)
     if ids.size < 3:
         return 0
-    sizes = np.array([len(l) for l in loops])
+    nxt = ids[_loop_successors([len(l) for l in loops])]
+    a, b = np.asarray(uv, float)[ids], np.asarray(uv, float)[nxt]
+    i, j = segment_crossings(a, b)
+    return int(np.count_nonzero((ids[i] != ids[j]) & (ids[i] != nxt[j]) & (nxt[i] != ids[j]) & (nxt[i] != nxt[j])))
+
+
+def _loop_successors(sizes: list[int]) -> np.ndarray:
+    """``(sum(sizes),)``: the position of each vertex's successor in loops of ``sizes`` stacked in one list."""
+    sizes = np.asarray(sizes, np.int64)
     start = np.repeat(np.cumsum(sizes) - sizes, sizes)
-    nxt = start + (np.arange(ids.size) - start + 1) % np.repeat(sizes, sizes)
-    a, b = np.asarray(uv, float)[ids], np.asarray(uv, float)[ids[nxt]]
-    i, j = _near_segment_pairs(a, b)
-    keep = (ids[i] != ids[j]) & (ids[i] != ids[nxt[j]]) & (ids[nxt[i]] != ids[j]) & (ids[nxt[i]] != ids[nxt[j]])
-    i, j = i[keep], j[keep]
-    eps = TOUCH_RTOL * max(float(np.ptp(np.r_[a, b], axis=0).max()), np.finfo(float).tiny)
+    return start + (np.arange(int(sizes.sum())) - start + 1) % np.repeat(sizes, sizes)
+
+
+def segment_crossings(a: np.ndarray, b: np.ndarray, c: np.ndarray | None = None, d: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs ``(i, j)`` of segments ``a[i] -> b[i]`` and ``c[j] -> d[j]`` (all ``(n, 2)`` / ``(m, 2)``) that
+    cross or touch, within :data:`TOUCH_RTOL` of their extent; without ``c, d`` the pairs ``i < j`` of the
+    first set among themselves (then the caller drops pairs sharing an end, which always touch). Linear in
+    the segments (a grid of half the median length finds the candidates) where Triangle, asked the same,
+    crashes or fails on the outlines that need asking: segments between duplicated points, nearly
+    collinear overlaps."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    one = c is None
+    c, d = (a, b) if one else (np.asarray(c, float), np.asarray(d, float))
+    i, j = _near_segment_pairs(np.r_[a, c] if not one else a, np.r_[b, d] if not one else b)
+    if not one:  # pairs across the two sets only, renumbered
+        n = a.shape[0]
+        cross = (i < n) != (j < n)
+        i, j = np.where(i[cross] < n, i[cross], j[cross]), np.where(i[cross] < n, j[cross], i[cross]) - n
+    if not i.size:
+        return i, j
+    pa, pb, qa, qb = a[i], b[i], c[j], d[j]
+    eps = TOUCH_RTOL * max(float(np.ptp(np.r_[a, b, c, d], axis=0).max()), np.finfo(float).tiny)
 
     def side(p, q, r):  # signed distance of r from the line p -> q (the segment's length in the unit)
-        d = q - p
-        return (d[:, 0] * (r[:, 1] - p[:, 1]) - d[:, 1] * (r[:, 0] - p[:, 0])) / np.maximum(
-            np.hypot(d[:, 0], d[:, 1]), np.finfo(float).tiny)
+        e = q - p
+        return (e[:, 0] * (r[:, 1] - p[:, 1]) - e[:, 1] * (r[:, 0] - p[:, 0])) / np.maximum(
+            np.hypot(e[:, 0], e[:, 1]), np.finfo(float).tiny)
 
-    s1, s2 = side(a[i], b[i], a[j]), side(a[i], b[i], b[j])
-    s3, s4 = side(a[j], b[j], a[i]), side(a[j], b[j], b[i])
+    s1, s2 = side(pa, pb, qa), side(pa, pb, qb)
+    s3, s4 = side(qa, qb, pa), side(qa, qb, pb)
     crossing = (s1 * s2 <= 0) & (s3 * s4 <= 0)
     # collinear pairs (all four within eps of each other's lines) cross only where their extents overlap
     flat = (np.abs(s1) <= eps) & (np.abs(s2) <= eps)
     if flat.any():
-        d = b[i] - a[i]
-        ta, tb = ((a[j] - a[i]) * d).sum(1), ((b[j] - a[i]) * d).sum(1)  # positions along segment i
+        e = pb - pa
+        ta, tb = ((qa - pa) * e).sum(1), ((qb - pa) * e).sum(1)  # positions along segment i
         lo, hi = np.minimum(ta, tb), np.maximum(ta, tb)
-        crossing &= ~flat | ((hi >= -eps * np.hypot(*d.T)) & (lo <= (d * d).sum(1) + eps * np.hypot(*d.T)))
+        crossing &= ~flat | ((hi >= -eps * np.hypot(*e.T)) & (lo <= (e * e).sum(1) + eps * np.hypot(*e.T)))
     near = (np.minimum.reduce([np.abs(s1), np.abs(s2), np.abs(s3), np.abs(s4)]) <= eps)
-    return int(np.count_nonzero(crossing | (near & _endpoint_touches(a[i], b[i], a[j], b[j], eps))))
+    hit = crossing | (near & _endpoint_touches(pa, pb, qa, qb, eps))
+    return i[hit], j[hit]
 
 
-#: Boundary segments closer than this fraction of the outline's extent touch (:func:`outline_crossings`).
+#: Segments closer than this fraction of their extent touch (:func:`segment_crossings`).
 TOUCH_RTOL = 1e-12
 
 

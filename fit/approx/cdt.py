@@ -58,7 +58,7 @@ def constrained(P: np.ndarray, segments: np.ndarray, holes: np.ndarray) -> tuple
     switch ``p`` alone Triangle inserts a point only where two segments cross.
     """
     t = tr.triangulate(_pslg(P, segments, holes), "p")
-    faces = np.asarray(t["triangles"], np.int64)
+    faces = np.asarray(t.get("triangles", np.zeros((0, 3))), np.int64).reshape(-1, 3)  # none: every one eaten
     allp = t["vertices"]
     neg = signed_areas(allp, faces) < 0
     faces[neg] = faces[neg][:, [0, 2, 1]]

@@ -71,7 +71,7 @@ from scipy.spatial import cKDTree
 
 from trispline.spline.checks import as_array, check_ids
 from trispline.spline.errors import InputError, TriangulationError
-from trispline.param import face_areas_3d, face_aspects
+from trispline.param import face_areas_3d, face_aspects, segment_crossings
 from trispline.spline.tolerances import MAX_DOMAIN_ASPECT
 from trispline.spline.topology import Triangulation, signed_areas
 
@@ -352,6 +352,65 @@ def _crossed(P: np.ndarray, segments: np.ndarray, extra: np.ndarray) -> np.ndarr
     return np.unique(np.flatnonzero((d <= 1e-9 * scale + 1e-300).any(0)))
 
 
+#: A chord may cross the scan's outline next to its own ends (a jagged outline) within this many of its
+#: segments; farther away it has left the domain (:func:`_leaving_chords`).
+CHORD_END_SEGMENTS = 2
+
+
+def _leaving_chords(uv: np.ndarray, boundary: list[np.ndarray], loops: tuple[np.ndarray, ...],
+                    position: np.ndarray) -> np.ndarray:
+    """Stacked ids of the chords between consecutive kept vertices (``boundary``, scan ids) that cross the
+    scan's own outline (``loops``; ``position (n,)`` each scan vertex's place in its loop) away from the run
+    they replace and its ends: such a chord cuts across a hole or the gap between the turns of a wound
+    strip, where a crossing with another chord need not show it (the thinned runs there cross nothing)."""
+    fine = np.concatenate(loops)
+    fine_next = fine[loop_segments([l.size for l in loops])[:, 1]]
+    fine_loop = np.repeat(np.arange(len(loops)), [l.size for l in loops])
+    kept = np.concatenate(boundary)
+    kept_next = kept[loop_segments([b.size for b in boundary])[:, 1]]
+    kept_loop = np.repeat(np.arange(len(boundary)), [b.size for b in boundary])
+    c, f = segment_crossings(uv[kept], uv[kept_next], uv[fine], uv[fine_next])
+    size = np.array([l.size for l in loops])[kept_loop[c]]
+    p0, p1, q = position[kept[c]], position[kept_next[c]], position[fine[f]]
+    run = np.where((p1 - p0) % size == 0, size, (p1 - p0) % size)  # a loop of one chord: the whole loop
+    own = (kept_loop[c] == fine_loop[f]) & (((q - p0) % size < run) | ((p0 - q) % size <= CHORD_END_SEGMENTS)
+                                            | ((q - p1) % size < CHORD_END_SEGMENTS))
+    return np.unique(c[~own])
+
+
+def _chords_past_holes(uv: np.ndarray, boundary: list[np.ndarray]) -> np.ndarray:
+    """Stacked ids of the outer loop's chords (the kept loop of largest area) nearest to the kept vertices of
+    other loops that lie outside its polygon: a chord that cut off a hole next to the outline along with
+    the run it replaced (halftunnel thinned to 16 vertices: a hole of three vertices outside a triangle)."""
+    if len(boundary) < 2:
+        return np.zeros(0, np.int64)
+    polys = [uv[b] for b in boundary]
+    area = [0.5 * float(np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1])) for p in polys]
+    outer = int(np.argmax(area))
+    a, b = polys[outer], np.roll(polys[outer], -1, axis=0)
+    pts = np.concatenate([p for k, p in enumerate(polys) if k != outer])
+    # even-odd rule: crossings of a ray to +u with the outer polygon's edges
+    straddle = (a[None, :, 1] > pts[:, None, 1]) != (b[None, :, 1] > pts[:, None, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = a[None, :, 0] + (pts[:, None, 1] - a[None, :, 1]) * (b - a)[None, :, 0] / (b - a)[None, :, 1]
+    outside = (np.count_nonzero(straddle & (x > pts[:, None, 0]), axis=1) % 2) == 0
+    if not outside.any():
+        return np.zeros(0, np.int64)
+    from .locate import segment_foot
+
+    q = pts[outside][:, None, :]
+    _, foot = segment_foot(q, a[None], b[None])
+    nearest = np.argmin(np.linalg.norm(foot - q, axis=2), axis=1)
+    return np.unique(nearest) + sum(bd.size for bd in boundary[:outer])
+
+
+def _loop_chords(boundary: list[np.ndarray], which: np.ndarray) -> np.ndarray:
+    """The stacked segment ids (as :func:`~.cdt.loop_segments` numbers them) of every chord of the loops
+    ``which``."""
+    base = np.cumsum([0] + [b.size for b in boundary])
+    return np.concatenate([np.arange(base[i], base[i + 1]) for i in which] or [np.zeros(0, np.int64)])
+
+
 def _split_runs(boundary: list[np.ndarray], loops: tuple[np.ndarray, ...], position: np.ndarray,
                 chords: np.ndarray) -> list[np.ndarray]:
     """Each loop's kept ids plus, for every chord in ``chords`` (stacked segment ids), the
@@ -387,7 +446,14 @@ def _triangulate(uv: np.ndarray, boundary: list[np.ndarray], interior: np.ndarra
         local = coarse_index(ids, uv.shape[0])
         creases = creases[(local[creases] >= 0).all(1)]
         segments = np.concatenate([outline, local[creases]])
+        leaving = np.union1d(_leaving_chords(uv, boundary, loops, position), _chords_past_holes(uv, boundary))
+        if leaving.size:  # a chord across another part of the outline (a spiral strip's turns), or past a hole
+            boundary = _split_runs(boundary, loops, position, leaving)
+            continue
         faces, extra = constrained(P, segments, hole_seeds([uv[b] for b in boundary]))
+        if not len(faces):  # Triangle ate every triangle: the thinned outline encloses nothing the right way
+            boundary = _split_runs(boundary, loops, position, _loop_chords(boundary, np.arange(len(boundary))))
+            continue
         if extra.shape[0] == 0:
             break
         crossed = _crossed(P, segments, extra)

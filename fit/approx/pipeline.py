@@ -254,7 +254,7 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray
         if "folded" not in exc.kinds:
             raise
         p = parameterize(X, F, method="harmonic", embedded=True)
-        p.messages.append(f"the lscm map folded; the harmonic map is used instead ({str(exc).splitlines()[0]})")
+        p.messages.append(f"{str(exc).splitlines()[0].split(':')[0]}; the harmonic map is used instead")
     return p.uv, p.faces, p
 
 

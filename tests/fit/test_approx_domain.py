@@ -291,3 +291,64 @@ def test_bad_arrays():
     dom = coarse_domain(scan.V, scan.F, scan.params, n_vertices=60)
     with pytest.raises(InputError, match="new_vertices"):
         insert(dom, [scan.V.shape[0]])
+
+
+def _spiral_strip(turns: float = 2.0, n: int = 400) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A planar strip wound ``turns`` times (Triangle's quality mesh of it), lifted: ``(V, F, uv)``."""
+    import triangle as tr
+
+    s = np.linspace(0.0, 2 * np.pi * turns, n)
+    r = 0.2 + 0.05 * s
+    outer = np.column_stack([(r + 0.08) * np.cos(s), (r + 0.08) * np.sin(s)])
+    inner = np.column_stack([r * np.cos(s), r * np.sin(s)])[::-1]
+    P = np.concatenate([outer, inner])
+    k = np.arange(P.shape[0])
+    t = tr.triangulate({"vertices": P, "segments": np.column_stack([k, (k + 1) % k.size])}, "pq25a0.0005Q")
+    uv = t["vertices"]
+    return lift(uv), np.asarray(t["triangles"], np.int64), uv
+
+
+@pytest.mark.parametrize("budget", [5, 16, 40])
+def test_a_long_wound_strip_keeps_its_chords_inside(budget):
+    """Thinned to a handful of vertices, a spiral strip's outline became chords across the gaps between its
+    turns (the domain a triangle covering them, or one of the other orientation, which Triangle took for a
+    hole and ate whole: KeyError 'triangles'). A chord that crosses the scan's outline away from its own run
+    is split, so the outline needs more vertices than those budgets, and says so."""
+    V, F, uv = _spiral_strip()
+    if budget < 19:
+        with pytest.raises(InputError, match="below what the boundary needs: it took 19 vertices"):
+            coarse_domain(V, F, uv, n_vertices=budget)
+        return
+    dom = coarse_domain(V, F, uv, n_vertices=budget)
+    tri = Triangulation(dom.uv, dom.faces)
+    assert (signed_areas(dom.uv, dom.faces) > 0).all() and len(tri.boundary_loops) == 1
+    # no face across the gaps: the coarse area is the strip's up to the slivers between chords and outline
+    np.testing.assert_allclose(tri.areas.sum(), Triangulation(uv, F).areas.sum(), rtol=0.15)
+    build_space(dom.triangulation)
+
+
+def _tab_with_hole(length: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A unit square with a tab of width 0.2 and ``length`` on top, a small round hole near the tab's end:
+    ``(V, F, uv, hole centre (1, 2))``."""
+    import triangle as tr
+
+    outer = np.array([[0, 0], [1, 0], [1, 1], [0.6, 1], [0.6, 1 + length], [0.4, 1 + length], [0.4, 1], [0, 1]],
+                     float)
+    c = np.array([0.5, 1 + length - 0.15])
+    th = np.linspace(0, 2 * np.pi, 12, endpoint=False)
+    P = np.concatenate([outer, c + 0.05 * np.column_stack([np.cos(th), np.sin(th)])])
+    seg = np.concatenate([np.column_stack([np.arange(8), (np.arange(8) + 1) % 8]),
+                          8 + np.column_stack([np.arange(12), (np.arange(12) + 1) % 12])])
+    t = tr.triangulate({"vertices": P, "segments": seg, "holes": c[None]}, "pq28a0.002Q")
+    uv = t["vertices"]
+    return lift(uv), np.asarray(t["triangles"], np.int64), uv, c[None]
+
+
+@pytest.mark.parametrize("length, budget", [(0.3, 16), (0.6, 16), (0.6, 30), (1.0, 16), (1.0, 30)])
+def test_a_chord_never_cuts_off_a_hole(length, budget):
+    """Thinned, the outline of a tab took a chord across the tab's base, leaving the hole in the tab
+    outside the outer polygon: Triangle dropped its vertices ("vertices not used by any face", exit 2 on
+    halftunnel with --vertices 16). The chord nearest such a hole is split until the hole is inside."""
+    V, F, uv, centre = _tab_with_hole(length)
+    dom = coarse_domain(V, F, uv, n_vertices=budget)
+    check_domain(dom, V, F, uv, centre)
