@@ -34,7 +34,7 @@ reference and the local term's targets agree):
   uv outline, where the fit made its domain itself (the context's ``target_shift``:
   :func:`outline_warp` of the whole mesh, so a local re-fair's halo sees the fit's own targets);
 * ears (:func:`ear_substitutes`): a patch with all three vertices on the outline takes the fit of
-  the nearest vertex off the outline.
+  the nearest vertex off the outline (within :data:`EAR_RINGS` edges).
 
 :func:`corner_gradients` makes the same substitution for the tilt targets of a corner whose only
 face is an ear (:mod:`trispline.fit.energy.tilt`; measured in docs/fit.md, "Boundary curves faired
@@ -47,7 +47,7 @@ from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial import cKDTree
+import scipy.sparse as sp
 from trispline.param.tables import boundary_loops, undirected_edges
 from trispline.spline.index import DEGREE, EXPONENTS
 from trispline.spline.topology import mean_edge_lengths, outline_vertex_mask
@@ -55,12 +55,13 @@ from trispline.spline.topology import mean_edge_lengths, outline_vertex_mask
 from .agreement import fit_skill, local_trust, log_fade
 from .curves import bump_bernstein, loop_bulges
 from .progress import Report
+from .targets import vertex_rings
 
 if TYPE_CHECKING:
     from .energy.context import TermContext
 
 __all__ = ["CURVE_WARP", "EAR_TARGETS", "FD_STEP", "RAGGED_MISS", "RELATIVE_BEND", "SKILLED_LOO", "SKILL_LOO_RANGE", "SMOOTH_MISS", "TRUSTED_LOO", "WARP_MAX",
-           "UNSKILLED_LOO", "UNTRUSTED_LOO", "bend_reference", "corner_gradients", "ear_substitutes", "outline_warp",
+           "UNSKILLED_LOO", "UNTRUSTED_LOO", "bend_reference", "corner_gradients", "EAR_RINGS", "ear_substitutes", "outline_warp",
            "trust"]
 
 #: Whether an ear's targets (a patch with all three vertices on the outline: its vertices' local fits
@@ -154,17 +155,34 @@ def _halo_edges(ctx: TermContext) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return ctx.memo["halo_edges"]
 
 
+#: An ear's substitute vertex is sought within this many edges of its corners (:func:`ear_substitutes`).
+EAR_RINGS = 3
+
+
 def ear_substitutes(uv: np.ndarray, halo_faces: np.ndarray, faces: np.ndarray, edges: tuple | None = None
                     ) -> np.ndarray:
     """``(n,)`` for each of the patches ``faces (n, 3)`` that is an ear (its three vertices on the
-    outline of ``halo_faces``) the vertex off the outline nearest its uv centroid; -1 elsewhere.
-    ``uv (h, 2)``; vertex ids index it; ``edges``: the :func:`edge_tables` of ``halo_faces``, when known."""
+    outline of ``halo_faces``) the vertex off the outline nearest its uv centroid among those within
+    :data:`EAR_RINGS` edges of its corners; -1 elsewhere (and where there is none). ``uv (h, 2)``;
+    vertex ids index it; ``edges``: the :func:`edge_tables` of ``halo_faces``, when known. Near in the
+    mesh, not only in uv: a map may cover the plane twice (LSCM of a helicoidal ramp of three turns),
+    and the vertex nearest in uv was then a turn away (a spike of 7% of the diagonal at the ramp's end)."""
     on = outline_vertex_mask(halo_faces, len(uv), tables=edge_tables(halo_faces, len(uv)) if edges is None else edges)
-    ear = on[faces].all(1)
+    ear = np.flatnonzero(on[faces].all(1))
     out = np.full(len(faces), -1, np.int64)
-    inside = np.flatnonzero(~on)
-    if ear.any() and inside.size:
-        out[ear] = inside[cKDTree(uv[inside]).query(uv[faces[ear]].mean(1))[1]]
+    if not ear.size or on.all():
+        return out
+    R = vertex_rings(halo_faces, len(uv), EAR_RINGS)
+    near = sp.csr_matrix((np.ones(3 * ear.size), (np.repeat(np.arange(ear.size), 3), faces[ear].ravel())),
+                         shape=(ear.size, len(uv))) @ R
+    near = sp.csr_matrix(near.multiply((~on).astype(np.int8)[None, :]))
+    near.eliminate_zeros()
+    near.sort_indices()
+    row = np.repeat(np.arange(ear.size), np.diff(near.indptr))
+    d = np.linalg.norm(uv[near.indices] - uv[faces[ear]].mean(1)[row], axis=1)
+    order = np.lexsort((d, row))  # per row, nearest first
+    first = order[np.r_[0, np.flatnonzero(np.diff(row[order])) + 1]] if order.size else order
+    out[ear[row[first]]] = near.indices[first]
     return out
 
 
