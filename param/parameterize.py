@@ -20,7 +20,7 @@ from trispline.spline.tolerances import ANGLE_DISTORTION_WARN
 from trispline.spline.topology import signed_areas
 from trispline.spline.util.progress import Report, silent, span
 
-from .distortion import face_distortion, fold_mask, outline_crossings, score, summarize, warning
+from .distortion import TANGLE_SEGMENTS, face_distortion, fold_mask, outline_crossings, score, summarize, warning
 from .domain import UVTransform, normalise
 from .errors import MeshError
 from .methods import MAPS, raw_map
@@ -208,13 +208,14 @@ def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
         raw, repaired = _unsliver(vm, raw, method, repair, messages, span(report, _SMOOTH_DONE, _REPAIR_DONE))
     if embedded:
         raw, repaired = _unoverlap(vm, raw, method, repaired, messages, span(report, _SMOOTH_DONE, _REPAIR_DONE))
-    elif method == "uv" and (crossings := outline_crossings(raw, vm.boundary_loops)):
+    elif method == "uv" and (crossings := outline_crossings(raw, vm.boundary_loops, tangle=TANGLE_SEGMENTS)):
         messages.append(f"the uv cover part of the plane more than once (their outline crosses itself at "
                         f"{crossings} points): the fit does not mind, but a point (u, v) there names more "
                         "than one point of the surface")
     if smooth and repaired in ("harmonic", "slim"):  # a map that replaced a worse repair
         smoothed, info = _smoothed(vm, raw, repaired, messages)
-        if not (embedded and outline_crossings(smoothed, vm.boundary_loops)):  # kept unsmoothed where it crosses
+        crossing = embedded and outline_crossings(smoothed, vm.boundary_loops, tangle=TANGLE_SEGMENTS)
+        if not crossing:  # else kept unsmoothed: the smoothing's small moves made it cross
             raw, smoothing = smoothed, info
     report(_REPAIR_DONE)
     uvn, centre, scale = normalise(raw)
@@ -343,7 +344,7 @@ def _unoverlap(vm: ValidatedMesh, raw: np.ndarray, method: str, repaired: str | 
     """``(map, repair name)``: ``raw`` when its outline does not cross itself, else the least sheared
     one-to-one harmonic or SLIM map (:func:`_global_alternative`); raises where there is none, and for
     the caller's own ``uv``."""
-    crossings = outline_crossings(raw, vm.boundary_loops)
+    crossings = outline_crossings(raw, vm.boundary_loops, tangle=TANGLE_SEGMENTS)
     if not crossings:
         return raw, repaired
     what = f"the {repaired or method} map overlaps itself (its outline crosses itself at {crossings} points)"
@@ -379,7 +380,7 @@ def _global_alternative(vm: ValidatedMesh, method: str, report: Report = silent,
             uv = uv * np.array([-1.0, 1.0])
         if (np.isfinite(uv).all() and not np.logical_or(*fold_mask(uv, vm.F)).any()
                 and not map_slivers(vm.V, uv, vm.F).any()
-                and not (embedded and outline_crossings(uv, vm.boundary_loops))):
+                and not (embedded and outline_crossings(uv, vm.boundary_loops, tangle=TANGLE_SEGMENTS))):
             s = score(summarize(*face_distortion(vm.V, vm.F, uv)))
             if best is None or s < best[2]:
                 best = (uv, alt, s)

@@ -285,6 +285,20 @@ def test_outline_crossings_equal_a_brute_force_count(n, seed, star):
     assert outline_crossings(P, [np.arange(n)]) == _brute_crossings(P)
 
 
+def test_a_local_tangle_of_the_outline_is_no_overlap():
+    """Two consecutive outline points swapped (a noisy outline's LSCM map tangles so): their segments cross,
+    but only a few steps apart along the loop, which is no second cover of the plane."""
+    from trispline.param.distortion import TANGLE_SEGMENTS, outline_crossings
+
+    t = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    P = np.column_stack([np.cos(t), np.sin(t)])
+    P[[10, 11]] = P[[11, 10]]
+    assert outline_crossings(P, [np.arange(40)]) > 0
+    assert outline_crossings(P, [np.arange(40)], tangle=TANGLE_SEGMENTS) == 0
+    P[20:25] = P[20:25] * np.array([-1.0, 1.0])  # a run folded over to the other side: far apart along the loop
+    assert outline_crossings(P, [np.arange(40)], tangle=TANGLE_SEGMENTS) > 0
+
+
 @pytest.mark.parametrize("method", ["lscm", "auto"])
 def test_embedded_replaces_a_map_that_overlaps_itself(method):
     from trispline.param.distortion import outline_crossings
