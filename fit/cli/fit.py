@@ -239,6 +239,7 @@ class _Input:
     kept: np.ndarray | None  # (nv,) index in the file of each vertex, when vertices were dropped or split
     parameterization: Any = None  # the Parameterization of the file's vt (--param uv), else made by _parameterize
     repair: dict | None = None  # --repair: changes and messages
+    validated: Any = None  # validate_mesh's ValidatedMesh of V, F (the parameterization does not check again)
 
 
 def _weights(args: argparse.Namespace) -> FitWeights:
@@ -316,10 +317,10 @@ def _load_input(args: argparse.Namespace, ui: UI) -> _Input:
         ui.warn(f"vertices were renumbered (the surface's source_vertex_index maps them to {source})")
     uv, p = None, None
     if args.param == "uv" and file_uv is not None:
-        p = parameterize(V, F, method="uv", uv=file_uv)
+        p = parameterize(V, F, method="uv", uv=file_uv, validated=vm)
         uv, F = p.uv, p.faces
         _announce(ui, p)
-    return _Input(V=V, F=F, uv=uv, source=source, kept=kept, parameterization=p, repair=repair)
+    return _Input(V=V, F=F, uv=uv, source=source, kept=kept, parameterization=p, repair=repair, validated=vm)
 
 
 def _repair(ui: UI, V: np.ndarray, F: np.ndarray, kept: np.ndarray | None, file_uv: np.ndarray | None,
@@ -356,7 +357,8 @@ def _parameterize(args: argparse.Namespace, ui: UI, mesh: _Input) -> tuple[Any, 
 
     t0 = time.perf_counter()
     with ui.stages((args.param,), "parameterize") as bar:
-        p = parameterize(mesh.V, mesh.F, method=args.param, report=lambda fraction: bar.at(args.param, fraction))
+        p = parameterize(mesh.V, mesh.F, method=args.param, report=lambda fraction: bar.at(args.param, fraction),
+                         validated=mesh.validated)
     refuse_slivers(p.uv, p.faces, V=mesh.V, method=p.method)  # before the map's warnings: one thing said
     _announce(ui, p)
     return p, time.perf_counter() - t0
