@@ -6,6 +6,10 @@ METIS ordering of the whole matrix makes, and the solves agree to rounding.
 """
 from __future__ import annotations
 
+import signal
+import subprocess
+import sys
+
 import jax
 import numpy as np
 import pytest
@@ -119,3 +123,32 @@ def test_the_patch_ordering_is_the_same_every_run(fit_matrix):
     """METIS runs seeded: the fit's factor (hence its rounding) does not change from run to run."""
     _, make = fit_matrix
     assert np.array_equal(make(), make())
+
+
+_METIS_SIGTERM = """
+import os, signal, sys, threading, time
+import numpy as np, scipy.sparse as sp
+from trispline.fit.ordering import _recursive_bisection
+n = 800  # a grid graph METIS takes about a second to bisect
+i = np.arange(n * n).reshape(n, n)
+r = np.concatenate([i[:-1].ravel(), i[:, :-1].ravel()])
+c = np.concatenate([i[1:].ravel(), i[:, 1:].ravel()])
+G = sp.csr_array((np.ones(2 * r.size), (np.r_[r, c], np.r_[c, r])), shape=(n * n, n * n))
+done = threading.Event()
+t = threading.Thread(target=lambda: (_recursive_bisection(G.indptr, G.indices, np.ones(G.nnz), 256), done.set()))
+t.start()
+time.sleep(0.05)
+if done.is_set():
+    sys.exit(3)  # METIS was done before the signal: nothing tested
+os.kill(os.getpid(), signal.SIGTERM)
+t.join()
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the guard is for glibc's sigaction")
+def test_sigterm_while_metis_orders_in_a_thread_ends_the_process_cleanly():
+    """METIS installs GKlib's SIGTERM handler (a longjmp to its caller's context) for every call; a kill
+    delivered to the main thread meanwhile ran it there and the process died of a segmentation fault.
+    ``sigterm_kept`` keeps SIGTERM's own disposition during the call: the process ends by SIGTERM."""
+    r = subprocess.run([sys.executable, "-c", _METIS_SIGTERM], capture_output=True, text=True, timeout=120)
+    assert r.returncode == -signal.SIGTERM, (r.returncode, r.stderr[-500:])
