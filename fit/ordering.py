@@ -28,7 +28,7 @@ import importlib.util
 import signal
 import sys
 import threading
-from typing import Iterator
+from collections.abc import Iterator
 
 import numpy as np
 import scipy.sparse as sp
