@@ -59,8 +59,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code (see the module docstring).
 
     As the program itself (``argv`` None: the ``trispline`` script, ``python -m trispline.fit``)
-    an interrupted or terminated command ends the process at once (:func:`~.common.leave`);
+    the process ends at once with the exit code, streams flushed (:func:`~.common.leave`);
     called with arguments (tests, other programs) it always returns.
     """
     code = run_cli(build_parser, argv)
-    return leave(code) if argv is None else code
+    if argv is None:
+        leave(code)
+    return code

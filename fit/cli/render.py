@@ -155,7 +155,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return parser
 
     code = run_cli(make_parser, argv)
-    return leave(code) if argv is None else code
+    if argv is None:
+        leave(code)
+    return code
 
 
 if __name__ == "__main__":  # pragma: no cover

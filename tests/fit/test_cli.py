@@ -271,6 +271,20 @@ def test_fit_prefetches_jax_beside_reading_the_mesh_and_still_fails_fast(tmp_pat
     assert not (tmp_path / "s.npz").exists()
 
 
+def test_the_program_ends_at_once_with_every_output_whole(tmp_path):
+    """As a program, a successful ``fit`` ends by ``os._exit`` after flushing (no 0.3-0.5 s of interpreter
+    teardown): its JSON on stdout and its files are complete."""
+    out = tmp_path / "s.npz"
+    r = subprocess.run([sys.executable, "-m", "trispline.fit", "fit", "--example", "--example-faces", "300", "-o",
+                        str(out), "--mesh-out", str(tmp_path / "s.ply"), "--json"],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    assert d["outputs"] == [str(out), str(tmp_path / "s.ply")]
+    assert SplineSurface.load(out).n_faces == d["patches"]
+    assert trimesh.load(tmp_path / "s.ply").faces.shape[0] > 0
+
+
 # ------------------------------------------------------------ check, export (no fit)
 @pytest.fixture(scope="module")
 def c1_file(tmp_path_factory) -> Path:
