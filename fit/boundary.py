@@ -55,7 +55,7 @@ from trispline.spline.topology import mean_edge_lengths, outline_vertex_mask
 from .agreement import fit_skill, local_trust, log_fade
 from .curves import bump_bernstein, loop_bulges
 from .progress import Report
-from .targets import vertex_rings
+from .targets import rings_of
 
 if TYPE_CHECKING:
     from .energy.context import TermContext
@@ -172,9 +172,10 @@ def ear_substitutes(uv: np.ndarray, halo_faces: np.ndarray, faces: np.ndarray, e
     out = np.full(len(faces), -1, np.int64)
     if not ear.size or on.all():
         return out
-    R = vertex_rings(halo_faces, len(uv), EAR_RINGS)
-    near = sp.csr_matrix((np.ones(3 * ear.size), (np.repeat(np.arange(ear.size), 3), faces[ear].ravel())),
-                         shape=(ear.size, len(uv))) @ R
+    corners = faces[ear].ravel()  # the rings of these alone (the whole mesh's took 0.26 s at 100k faces)
+    R = rings_of(halo_faces, len(uv), corners, np.full(corners.size, EAR_RINGS))
+    near = sp.csr_matrix((np.ones(corners.size), (np.repeat(np.arange(ear.size), 3), np.arange(corners.size))),
+                         shape=(ear.size, corners.size)) @ R
     near = sp.csr_matrix(near.multiply((~on).astype(np.int8)[None, :]))
     near.eliminate_zeros()
     near.sort_indices()

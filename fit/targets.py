@@ -126,7 +126,7 @@ def padded_neighbours(
         rows = np.flatnonzero(wider)
         w = wider.astype(np.int8)[:, None]
         place = sp.csr_matrix((np.ones(rows.size, np.int8), (rows, np.arange(rows.size))), shape=(nv, rows.size))
-        R = sp.csr_matrix(R.multiply(1 - w) + place @ _rings_of(faces, nv, rows, np.full(rows.size, rings + 1)))
+        R = sp.csr_matrix(R.multiply(1 - w) + place @ rings_of(faces, nv, rows, np.full(rows.size, rings + 1)))
         R.eliminate_zeros()
         R.sort_indices()
     return _nearest_first(R, uv, np.arange(nv), max_neighbours)
@@ -171,7 +171,7 @@ def _nearest_first(R: sp.csr_matrix, uv: np.ndarray, centre: np.ndarray, max_nei
     return out, count
 
 
-def _rings_of(faces: np.ndarray, nv: int, centre: np.ndarray, rings: np.ndarray) -> sp.csr_matrix:
+def rings_of(faces: np.ndarray, nv: int, centre: np.ndarray, rings: np.ndarray) -> sp.csr_matrix:
     """``(m, nv)`` bool CSR: row ``i`` the vertices within ``rings[i]`` edges of ``centre[i]`` (itself not)."""
     A = vertex_rings(faces, nv, 1)
     m = centre.size
@@ -588,7 +588,7 @@ def local_rbf_fit(
             rows = rows[:0]
     if not rows.size:
         return fit
-    R = _rings_of(faces, nv, rows, np.where(on[rows], *OUTLINE_FIT_RINGS))
+    R = rings_of(faces, nv, rows, np.where(on[rows], *OUTLINE_FIT_RINGS))
     nbr2, count2 = _nearest_first(R, uv, rows, OUTLINE_MAX_NEIGHBOURS)
     with single_threaded_blas():  # systems of ~110: BLAS threads per system oversubscribe the cores (40x slower)
         kernels2 = OUTLINE_KERNELS if outline_kernels is None else outline_kernels
