@@ -24,8 +24,9 @@ from .errors import MeshError, MeshWarning, UnreferencedVerticesWarning
 from .inspect import inspect_mesh
 from .methods import harmonic_uv, slim_uv
 from .parameterize import DEFAULT_METHOD, METHODS, Parameterization, parameterize
-from .repair import fill_holes, repair_folds, tutte
+from .repair import fill_holes, polygon_area, repair_folds, tutte
 from .repair_mesh import RepairedMesh, repair_mesh
+from .tables import loop_successors
 from .validate import ValidatedMesh, face_areas_3d, face_aspects, refuse_slivers, sliver_message, validate_mesh
 
 __all__ = [
@@ -34,5 +35,5 @@ __all__ = [
     "DEFAULT_METHOD", "METHODS", "Parameterization", "UVTransform", "parameterize", "harmonic_uv", "slim_uv",
     "user_domain", "reverse_faces", "fill_holes", "fold_mask", "normalise", "repair_folds", "tutte",
     "distortion_report", "face_distortion", "face_jacobians", "summarize", "closest_points",
-    "outline_crossings", "segment_crossings",
+    "outline_crossings", "segment_crossings", "loop_successors", "polygon_area",
 ]

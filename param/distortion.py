@@ -20,6 +20,8 @@ from trispline.spline.checks import as_array, check_ids
 from trispline.spline.tolerances import ANGLE_DISTORTION_WARN, AREA_DISTORTION_WARN, MIN_RELATIVE_AREA
 from trispline.spline.topology import signed_areas
 
+from .tables import loop_successors
+
 #: Percentiles reported for each distortion measure.
 PERCENTILES = (50, 90, 99)
 
@@ -47,7 +49,7 @@ def outline_crossings(uv: np.ndarray, loops: list[np.ndarray], *, tangle: int = 
     if ids.size < 3:
         return 0
     sizes = [len(l) for l in loops]
-    nxt = ids[_loop_successors(sizes)]
+    nxt = ids[loop_successors(sizes)]
     a, b = np.asarray(uv, float)[ids], np.asarray(uv, float)[nxt]
     i, j = segment_crossings(a, b)
     keep = (ids[i] != ids[j]) & (ids[i] != nxt[j]) & (nxt[i] != ids[j]) & (nxt[i] != nxt[j])
@@ -62,13 +64,6 @@ def outline_crossings(uv: np.ndarray, loops: list[np.ndarray], *, tangle: int = 
 #: Crossings among segments of one loop at most this many steps apart are a local tangle of a noisy outline,
 #: not an overlap of the map (:func:`outline_crossings`).
 TANGLE_SEGMENTS = 8
-
-
-def _loop_successors(sizes: list[int]) -> np.ndarray:
-    """``(sum(sizes),)``: the position of each vertex's successor in loops of ``sizes`` stacked in one list."""
-    sizes = np.asarray(sizes, np.int64)
-    start = np.repeat(np.cumsum(sizes) - sizes, sizes)
-    return start + (np.arange(int(sizes.sum())) - start + 1) % np.repeat(sizes, sizes)
 
 
 def segment_crossings(a: np.ndarray, b: np.ndarray, c: np.ndarray | None = None, d: np.ndarray | None = None

@@ -18,8 +18,16 @@ from scipy.sparse.csgraph import connected_components
 
 from trispline.spline.topology import halfedges, undirected_edges
 
-__all__ = ["halfedges", "undirected_edges", "edge_pairs", "vertex_components", "corner_fans", "fan_counts",
+__all__ = ["loop_successors", "halfedges", "undirected_edges", "edge_pairs", "vertex_components", "corner_fans", "fan_counts",
            "orientation_classes", "boundary_loop_count", "boundary_loops"]
+
+
+def loop_successors(sizes: list[int]) -> np.ndarray:
+    """``(sum(sizes),)``: the position of each vertex's successor in loops of ``sizes`` stacked in one list
+    (the last of a loop is followed by its first)."""
+    sizes = np.asarray(sizes, np.int64)
+    start = np.repeat(np.cumsum(sizes) - sizes, sizes)
+    return start + (np.arange(int(sizes.sum())) - start + 1) % np.repeat(sizes, sizes)
 
 
 def edge_pairs(he_edge: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

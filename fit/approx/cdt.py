@@ -15,6 +15,7 @@ from typing import Callable
 import numpy as np
 import triangle as tr
 
+from trispline.param import loop_successors, polygon_area
 from trispline.spline.topology import signed_areas, triangle_areas
 
 __all__ = ["loop_segments", "hole_seeds", "constrained", "quality_mesh"]
@@ -22,12 +23,7 @@ __all__ = ["loop_segments", "hole_seeds", "constrained", "quality_mesh"]
 
 def loop_segments(sizes: list[int]) -> np.ndarray:
     """``(s, 2)`` closing chords of consecutive loops of the given sizes, stacked in one vertex list."""
-    out, base = [], 0
-    for k in sizes:
-        i = np.arange(k)
-        out.append(base + np.column_stack([i, (i + 1) % k]))
-        base += k
-    return np.concatenate(out) if out else np.empty((0, 2), np.int64)
+    return np.column_stack([np.arange(int(np.sum(sizes, dtype=np.int64))), loop_successors(sizes)])
 
 
 def _pslg(P: np.ndarray, segments: np.ndarray, holes: np.ndarray) -> dict:
@@ -42,7 +38,7 @@ def hole_seeds(loops: list[np.ndarray]) -> np.ndarray:
     the centroid of its largest triangle (robust for any simple polygon, unlike an offset from an edge)."""
     seeds = []
     for p in loops:
-        if triangle_areas(np.zeros((1, 2)), p, np.roll(p, -1, axis=0)).sum() >= 0:  # counter-clockwise: outer
+        if polygon_area(p) >= 0:  # counter-clockwise: outer
             continue
         t = tr.triangulate(_pslg(p, loop_segments([p.shape[0]]), np.empty(0)), "p")
         T = t["vertices"][t["triangles"]]

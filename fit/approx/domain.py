@@ -71,7 +71,7 @@ from scipy.spatial import cKDTree
 
 from trispline.spline.checks import as_array, check_ids
 from trispline.spline.errors import InputError, TriangulationError
-from trispline.param import face_areas_3d, face_aspects, segment_crossings
+from trispline.param import face_areas_3d, face_aspects, loop_successors, polygon_area, segment_crossings
 from trispline.spline.tolerances import MAX_DOMAIN_ASPECT
 from trispline.spline.topology import Triangulation, signed_areas
 
@@ -364,10 +364,10 @@ def _leaving_chords(uv: np.ndarray, boundary: list[np.ndarray], loops: tuple[np.
     they replace and its ends: such a chord cuts across a hole or the gap between the turns of a wound
     strip, where a crossing with another chord need not show it (the thinned runs there cross nothing)."""
     fine = np.concatenate(loops)
-    fine_next = fine[loop_segments([l.size for l in loops])[:, 1]]
+    fine_next = fine[loop_successors([l.size for l in loops])]
     fine_loop = np.repeat(np.arange(len(loops)), [l.size for l in loops])
     kept = np.concatenate(boundary)
-    kept_next = kept[loop_segments([b.size for b in boundary])[:, 1]]
+    kept_next = kept[loop_successors([b.size for b in boundary])]
     kept_loop = np.repeat(np.arange(len(boundary)), [b.size for b in boundary])
     c, f = segment_crossings(uv[kept], uv[kept_next], uv[fine], uv[fine_next])
     size = np.array([l.size for l in loops])[kept_loop[c]]
@@ -385,8 +385,7 @@ def _chords_past_holes(uv: np.ndarray, boundary: list[np.ndarray]) -> np.ndarray
     if len(boundary) < 2:
         return np.zeros(0, np.int64)
     polys = [uv[b] for b in boundary]
-    area = [0.5 * float(np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1])) for p in polys]
-    outer = int(np.argmax(area))
+    outer = int(np.argmax([polygon_area(p) for p in polys]))
     a, b = polys[outer], np.roll(polys[outer], -1, axis=0)
     pts = np.concatenate([p for k, p in enumerate(polys) if k != outer])
     # even-odd rule: crossings of a ray to +u with the outer polygon's edges
