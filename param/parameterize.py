@@ -210,9 +210,10 @@ def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
         raw, smoothing = _smoothed(vm, raw, method, messages)
     report(_SMOOTH_DONE)
     raw, repaired, folds = _unfold(vm, raw, method, uv is None, repair, messages,
-                                   span(report, _SMOOTH_DONE, _REPAIR_DONE))
+                                   span(report, _SMOOTH_DONE, _REPAIR_DONE), embedded)
     if repaired is None:
-        raw, repaired = _unsliver(vm, raw, method, repair, messages, span(report, _SMOOTH_DONE, _REPAIR_DONE))
+        raw, repaired = _unsliver(vm, raw, method, repair, messages, span(report, _SMOOTH_DONE, _REPAIR_DONE),
+                                  embedded)
     if embedded:
         raw, repaired = _unoverlap(vm, raw, method, repaired, messages, span(report, _SMOOTH_DONE, _REPAIR_DONE))
     elif method == "uv" and (crossings := outline_crossings(raw, vm.boundary_loops, tangle=TANGLE_SEGMENTS)):
@@ -298,12 +299,14 @@ def _verdict(p: Parameterization) -> str:
 
 
 def _unfold(vm: ValidatedMesh, raw: np.ndarray, method: str, no_uv: bool, repair: bool,
-            messages: list[str], report: Report = silent) -> tuple[np.ndarray, str | None, tuple[int, int]]:
+            messages: list[str], report: Report = silent, embedded: bool = False
+            ) -> tuple[np.ndarray, str | None, tuple[int, int]]:
     """``(map, repair name or None, (flipped, degenerate) counts)``: ``raw`` itself when it does
     not fold, else its replacement (reported in ``messages``); raises when folded and not ``repair``.
 
     A folded free-boundary map (``lscm``, ``slim``) gives way to the least sheared (lowest score) of the
-    fold-free harmonic and SLIM maps (:func:`_global_alternative`); the repair that keeps the map's outline
+    fold-free harmonic and SLIM maps (:func:`_global_alternative`; one-to-one ones where ``embedded``, so that
+    :func:`_unoverlap` has no second to make); the repair that keeps the map's outline
     (:func:`~trispline.param.repair.repair_folds`: libigl's composite harmonic map) only where neither is
     fold-free. Its outline is worth keeping where the user gave it (``uv``); a free boundary's is not,
     and the repair was the more sheared on every mesh measured whose LSCM map folds (score: halftunnel
@@ -321,14 +324,15 @@ def _unfold(vm: ValidatedMesh, raw: np.ndarray, method: str, no_uv: bool, repair
     if not repair:
         raise MeshError(f"the {method} parameterization folds {n_flip + n_deg} triangles: {what}; "
                         f"enable repair or choose another method{hint}", ["folded"])
-    alt = _global_alternative(vm, method, span(report, 0.0, 0.9)) if method in ("lscm", "slim") else None
+    free_boundary = method in ("lscm", "slim")
+    alt = _global_alternative(vm, method, span(report, 0.0, 0.9), embedded) if free_boundary else None
     raw, repaired = (alt[0], alt[1]) if alt is not None else repair_folds(vm, raw, method)
     messages.append(f"the {method} map had {what}; repaired with a {repaired} map{hint}")
     return raw, repaired, (n_flip, n_deg)
 
 
 def _unsliver(vm: ValidatedMesh, raw: np.ndarray, method: str, repair: bool, messages: list[str],
-              report: Report = silent) -> tuple[np.ndarray, str | None]:
+              report: Report = silent, embedded: bool = False) -> tuple[np.ndarray, str | None]:
     """``(map, name of its replacement or None)``: a fold-free free-boundary map that squeezed triangles of
     the mesh into slivers too thin to fit (:func:`~trispline.param.validate.map_slivers`; LSCM on an open
     cylinder of tall triangles: aspect 6e12) gives way to the least sheared harmonic or SLIM map without
@@ -338,7 +342,7 @@ def _unsliver(vm: ValidatedMesh, raw: np.ndarray, method: str, repair: bool, mes
     bad = map_slivers(vm.V, raw, vm.F)
     if not bad.any():
         return raw, None
-    alt = _global_alternative(vm, method, report)
+    alt = _global_alternative(vm, method, report, embedded)
     if alt is None:
         return raw, None
     messages.append(f"the {method} map squeezed {int(bad.sum())} triangles into slivers (faces "
