@@ -120,8 +120,9 @@ def _recursive_bisection(xadj: np.ndarray, adjncy: np.ndarray, weights: np.ndarr
 
 
 #: Bytes of a C ``struct sigaction`` at most (glibc x86-64: 152); copied whole, never interpreted but for
-#: its first field, the handler.
+#: its first field, the handler (a pointer: :data:`HANDLER` bytes).
 SIGACTION_BYTES = 256
+HANDLER = ctypes.sizeof(ctypes.c_void_p)
 #: How often :func:`sigterm_kept` puts SIGTERM's disposition back while METIS runs (seconds).
 SIGNAL_KEEP_INTERVAL = 0.002
 
@@ -147,7 +148,7 @@ def sigterm_kept() -> Iterator[None]:
     def keep() -> None:
         now = ctypes.create_string_buffer(SIGACTION_BYTES)
         while not stop.wait(SIGNAL_KEEP_INTERVAL):
-            if libc.sigaction(signal.SIGTERM, None, now) == 0 and now.raw[:8] != saved.raw[:8]:
+            if libc.sigaction(signal.SIGTERM, None, now) == 0 and now.raw[:HANDLER] != saved.raw[:HANDLER]:
                 libc.sigaction(signal.SIGTERM, saved, None)
 
     watcher = threading.Thread(target=keep, name="trispline-sigterm-kept", daemon=True)

@@ -413,8 +413,9 @@ def prefetch(*modules: str) -> threading.Thread:
     The fit's first second is reading, checking and mapping the mesh on one core, and JAX's import
     (~1-1.7 s, pure import work) waited behind it; now it runs on the other core meanwhile. A later
     ``import`` of the same module in any thread simply waits for this one (Python's per-module import
-    locks). Not a daemon: a normal interpreter exit waits for it instead of ending an import midway;
-    every failure exit goes through :func:`leave` (``os._exit``), which does not wait. numpy and scipy
+    locks). Not a daemon: a normal interpreter exit (an in-process ``main(argv)``'s caller) waits for it
+    instead of ending an import midway; the program itself ends through :func:`leave` (``os._exit``),
+    which does not wait. numpy and scipy
     are imported here first, so the two threads share no package being imported at once.
     """
     import importlib
