@@ -133,18 +133,20 @@ def _near_segment_pairs(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.nd
     cell = np.floor((a[seg] + t[:, None] * (b - a)[seg]) / h).astype(np.int64)
     cell -= cell.min(0)
     width = int(cell[:, 1].max()) + 3
-    own = np.unique(np.column_stack([(cell[:, 0] + 1) * width + cell[:, 1] + 1, seg]), axis=0)  # (cell, seg)
+    key = (cell[:, 0] + 1) * width + cell[:, 1] + 1
+    order = np.lexsort((seg, key))  # the distinct (cell, segment) pairs, by cell: two flat keys sort ~10x
+    key, seg = key[order], seg[order]  # faster than np.unique(..., axis=0) on their rows
+    first = np.r_[True, (key[1:] != key[:-1]) | (seg[1:] != seg[:-1])]
+    cells, segs = key[first], seg[first]
     shifts = np.array([dx * width + dy for dx in (-1, 0, 1) for dy in (-1, 0, 1)])
-    probe = np.column_stack([(own[:, 0][:, None] + shifts).ravel(), np.repeat(own[:, 1], shifts.size)])
-    order = np.argsort(own[:, 0], kind="stable")
-    cells, segs = own[order, 0], own[order, 1]
-    lo = np.searchsorted(cells, probe[:, 0], "left")
-    hi = np.searchsorted(cells, probe[:, 0], "right")
-    n = hi - lo
-    i = np.repeat(probe[:, 1], n)
+    probe = (cells[:, None] + shifts).ravel()
+    lo = np.searchsorted(cells, probe, "left")
+    n = np.searchsorted(cells, probe, "right") - lo
+    i = np.repeat(np.repeat(segs, shifts.size), n)
     j = segs[np.repeat(lo, n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)]
-    pairs = np.unique(np.column_stack([np.minimum(i, j), np.maximum(i, j)])[i != j], axis=0)
-    return pairs[:, 0], pairs[:, 1]
+    m = a.shape[0]
+    pairs = np.unique((np.minimum(i, j) * m + np.maximum(i, j))[i != j])  # i < j < m: no overflow below 3e9
+    return pairs // m, pairs % m
 
 
 def face_jacobians(V: np.ndarray, F: np.ndarray, uv: np.ndarray) -> np.ndarray:
