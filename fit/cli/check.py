@@ -121,36 +121,55 @@ def _corner_points(tri: Any, ctrl: np.ndarray) -> np.ndarray:
 
 
 def _stored_fit(ex: dict, corners: np.ndarray) -> dict[str, Any]:
-    """What ``fit`` stored in the file's optional keys: energies, weights, settings, interpolation error."""
+    """What ``fit`` stored in the file's optional keys: energies, weights, settings, interpolation error.
+    A malformed optional key (another writer's, an edited file) is left out and named in ``ignored_keys``."""
     report: dict[str, Any] = {}
-    for key, names, values in (("energies", "fit_energy_names", "fit_energies"),
-                               ("weights", "fit_weight_names", "fit_weights")):
-        if names in ex and values in ex:
-            report[key] = dict(zip([str(s) for s in np.atleast_1d(ex[names])],
-                                   [float(v) for v in np.atleast_1d(ex[values])]))
-    if "fit_energies_normalised" in ex and "fit_energy_names" in ex:  # per unit area of a unit-diagonal surface
-        report["energies_normalised"] = dict(zip([str(s) for s in np.atleast_1d(ex["fit_energy_names"])],
-                                                 [float(v) for v in np.atleast_1d(ex["fit_energies_normalised"])]))
+    ignored: list[str] = []
+
+    def read(keys: tuple[str, ...], convert: Callable[..., Any]) -> Any:
+        if not all(k in ex for k in keys):
+            return None
+        try:
+            return convert(*(ex[k] for k in keys))
+        except (ValueError, TypeError, IndexError):
+            ignored.extend(k for k in keys if k not in ignored)
+            return None
+
+    def named(names: Any, values: Any) -> dict[str, float]:
+        names, values = [str(s) for s in np.atleast_1d(names)], [float(v) for v in np.atleast_1d(values)]
+        if len(names) != len(values):
+            raise ValueError("names and values differ in length")
+        return dict(zip(names, values))
+
+    for key, keys in (("energies", ("fit_energy_names", "fit_energies")),
+                      ("weights", ("fit_weight_names", "fit_weights")),
+                      ("energies_normalised", ("fit_energy_names", "fit_energies_normalised"))):
+        value = read(keys, named)  # normalised: per unit area of a unit-diagonal surface
+        if value is not None:
+            report[key] = value
     for key in ("fit_param", "fit_param_chosen", "fit_source", "fit_iterations", "fit_converged"):
-        if key in ex:
-            v = np.asarray(ex[key])
-            report[key[4:]] = v.item() if v.ndim == 0 else v.tolist()
+        value = read((key,), lambda v: np.asarray(v).item() if np.ndim(v) == 0 else np.asarray(v).tolist())
+        if value is not None:
+            report[key[4:]] = value
     for key in ("domain_max_move", "domain_max_relative_move"):  # fit snapped domain vertices (issue 14)
-        if key in ex:
-            report[key] = float(np.asarray(ex[key]))
-    if "data_vertices" in ex:
-        D = np.asarray(ex["data_vertices"], float)
-        if D.shape == corners.shape:
-            report["max_interpolation_error"] = float(np.abs(corners - D).max())
-    if "approx_deviation_names" in ex and "approx_deviation" in ex:  # an approximation (fit --tolerance)
-        report["approximation"] = _stored_approximation(ex)
+        value = read((key,), lambda v: float(np.asarray(v)))
+        if value is not None:
+            report[key] = value
+    error = read(("data_vertices",), lambda D: float(np.abs(corners - np.asarray(D, float).reshape(corners.shape)).max()))
+    if error is not None:
+        report["max_interpolation_error"] = error
+    approximation = read(("approx_deviation_names", "approx_deviation"), lambda *_: _stored_approximation(ex))
+    if approximation is not None:  # an approximation (fit --tolerance)
+        report["approximation"] = approximation
+    if ignored:
+        report["ignored_keys"] = ignored
     return report
 
 
 def _stored_approximation(ex: dict) -> dict[str, Any]:
     """An approximation's stored deviation statistics and settings (``approx_*`` keys)."""
-    out: dict[str, Any] = dict(deviation=dict(zip([str(s) for s in np.atleast_1d(ex["approx_deviation_names"])],
-                                                  [float(v) for v in np.atleast_1d(ex["approx_deviation"])])))
+    names, values = [str(s) for s in np.atleast_1d(ex["approx_deviation_names"])], np.atleast_1d(ex["approx_deviation"])
+    out: dict[str, Any] = dict(deviation=dict(zip(names, [float(v) for v in values])))
     for key in ("approx_loss", "approx_corners", "approx_tolerance", "approx_budget", "approx_met", "approx_stop",
                 "approx_noise"):
         if key in ex:
@@ -201,6 +220,8 @@ def cmd_check(args: argparse.Namespace, ui: UI) -> int:
         report = surface_report(surface, tolerance=args.tolerance, samples=max(args.samples, 2),
                                 progress=lambda f: bar.at("residuals", 0.9 * f))
         bar.done()
+    if report.get("ignored_keys"):
+        ui.warn(f"{args.surface}: ignored malformed optional keys: {', '.join(report['ignored_keys'])}")
     data = dict(command="check", file=args.surface, **report)
     ui.result(data, _check_text)
     if not report["ok"]:

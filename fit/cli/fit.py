@@ -298,6 +298,11 @@ def _load_input(args: argparse.Namespace, ui: UI) -> _Input:
             md = read_mesh(args.mesh)
         V, F, file_uv = md.V, md.F, md.uv
         source = str(args.mesh)
+        if args.param == "uv" and md.uv_note:  # not (x, y) in their place without a word
+            from trispline.param import MeshError
+
+            raise MeshError(f"{source}: --param uv cannot use the file's texture coordinates: {md.uv_note} "
+                            "(without vt lines, --param uv maps (x, y) as a height field)", ["uv"])
         if md.dropped:
             kept = md.kept
     repair = None

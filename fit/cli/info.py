@@ -67,7 +67,8 @@ def _info_text(d: dict) -> str:
         f"  manifold {d['manifold']} (non-manifold edges {d['non_manifold_edges']}, "
         f"bowtie vertices {d.get('bowtie_vertices', '?')}), degenerate faces: {deg['zero_area']} zero-area, "
         f"{deg['repeated_vertex']} with a repeated vertex; non-finite vertices {d['non_finite_vertices']}",
-        f"  texture coordinates (vt): {'yes' if d.get('has_uv') else 'no'}",
+        f"  texture coordinates (vt): {'yes' if d.get('has_uv') else 'no'}"
+        + (f" (not usable by --param uv: {d['uv_note']})" if d.get("uv_note") else ""),
         f"  folded edges (adjacent faces more than 90 degrees apart) {d['folded_edges']}"
         + (f", worst {d['worst_fold_degrees']:.0f} degrees (fit --repair cuts folded flaps)"
            if d["folded_edges"] else ""),
@@ -103,6 +104,6 @@ def cmd_info(args: argparse.Namespace, ui: UI) -> int:
     if report.get("distortion", {}).get("warning"):
         ui.warn(report["distortion"]["warning"])
     data = dict(command="info", file=args.mesh, format=Path(args.mesh).suffix.lower()[1:],
-                dropped_unreferenced_vertices=md.dropped, has_uv=md.uv is not None, **report)
+                dropped_unreferenced_vertices=md.dropped, has_uv=md.uv is not None, uv_note=md.uv_note, **report)
     ui.result(data, _info_text)
     return EXIT_OK if report["fit"]["accepted"] else EXIT_CHECK

@@ -53,6 +53,9 @@ class MeshData:
         Number of unreferenced vertices removed.
     kept : (nv,) int64
         Index in the file of each vertex of ``V``.
+    uv_note : str or None
+        Why an OBJ's ``vt`` lines give no ``uv`` (a face without them, a seam, indices out of
+        range); None when the file has none or they give ``uv``.
     """
 
     V: np.ndarray
@@ -61,6 +64,7 @@ class MeshData:
     path: Path
     dropped: int
     kept: np.ndarray
+    uv_note: str | None = None
 
 
 def read_mesh(path: str | Path) -> MeshData:
@@ -75,14 +79,13 @@ def read_mesh(path: str | Path) -> MeshData:
     path = _readable_file(path)
     ext = path.suffix.lower()
     try:
+        uv, uv_note = None, None
         if ext == ".obj":
-            V, F, uv = read_obj(path)
+            V, F, uv, uv_note = read_obj(path)
         elif ext == ".off":
             V, F = read_off(path)
-            uv = None
         else:
             V, F = read_trimesh(path, ext)
-            uv = None
     except MeshError:
         raise
     except Exception as exc:  # noqa: BLE001 - any parser failure is a user-facing format error
@@ -115,7 +118,7 @@ def read_mesh(path: str | Path) -> MeshData:
         remap = np.cumsum(used) - 1
         V, F = V[used], remap[F]
         uv = None if uv is None else uv[used]
-    return MeshData(V=V, F=F, uv=uv, path=path, dropped=dropped, kept=kept)
+    return MeshData(V=V, F=F, uv=uv, path=path, dropped=dropped, kept=kept, uv_note=uv_note)
 
 
 def _readable_file(path: str | Path) -> Path:

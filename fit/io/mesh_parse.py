@@ -13,14 +13,17 @@ from __future__ import annotations
 import io
 from itertools import islice
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
 from trispline.param.errors import MeshError
 from trispline.spline.errors import first_few
 
-__all__ = ["fan_triangulate", "read_obj", "read_off", "check_ply_header", "check_stl_size", "read_trimesh"]
+__all__ = ["ObjMesh", "fan_triangulate", "read_obj", "read_off", "check_ply_header", "check_stl_size", "read_trimesh"]
 
+#: UTF-8's byte order mark, which some writers put first.
+_BOM = b"\xef\xbb\xbf"
 #: Bytes of the shortest OFF vertex line (``"0 0 0\n"``) and face line (``"3 0 1 2\n"``).
 _OFF_MIN_VERTEX, _OFF_MIN_FACE = 6, 8
 #: Longest PLY header read (real headers have a few hundred bytes).
@@ -74,16 +77,28 @@ def _coordinates(rows: list[str] | list[list[str]], width: int, what: str, where
         raise  # pragma: no cover - every row converts alone
 
 
-def read_obj(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """``(V (nv, 3), F (nf, 3), uv (nv, 2) or None)``; ``uv`` when every vertex has exactly one ``vt``.
+class ObjMesh(NamedTuple):
+    """An OBJ's arrays: ``V (nv, 3)``, ``F (nf, 3)``, ``uv (nv, 2)`` when every vertex has exactly one ``vt``
+    (else None), and ``uv_note``: why the file's ``vt`` lines give no ``uv`` (None: it has none, or they do)."""
+
+    V: np.ndarray
+    F: np.ndarray
+    uv: np.ndarray | None
+    uv_note: str | None = None
+
+
+def read_obj(path: Path) -> ObjMesh:
+    """The OBJ at ``path`` (:class:`ObjMesh`; a UTF-8 byte order mark is skipped).
 
     The common file (triangles ``f a b c``, or ``f a/t b/t c/t``, positive indices, one width of ``v`` and
-    ``vt`` lines) is parsed by whole arrays (:func:`_obj_arrays`: a 1M-face scan 4.5 -> 1.2 s); any other, or
-    any error, line by line (:func:`_read_obj_lines`, from the same bytes), which names the bad line."""
+    ``vt`` lines, no tabs, indents or comments after data) is parsed by whole arrays (:func:`_obj_arrays`: a
+    1M-face scan 4.5 -> 1.2 s); any other, or any error, line by line (:func:`_read_obj_lines`, from the
+    same bytes), which names the bad line."""
     try:
         data = path.read_bytes()
     except OSError as exc:
         raise _unreadable(path, str(exc)) from None
+    data = data.removeprefix(_BOM)
     fast = _obj_arrays(data)
     if fast is not None:
         return _with_uv(*fast, path)
@@ -93,6 +108,8 @@ def read_obj(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
 def _obj_arrays(data: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None] | None:
     """``(V, F, T, FT)`` of the common OBJ by whole-array conversions (``T``, ``FT``: the texture coordinates
     and the faces' indices into them, or None), or None where the file is not of that form."""
+    if _irregular(data):  # keywords are found by their first bytes only where lines are plain
+        return None
     lines = data.split(b"\n")
     verts = [ln[2:] for ln in lines if ln[:2] == b"v "]
     faces = [ln[2:] for ln in lines if ln[:2] == b"f "]
@@ -112,11 +129,29 @@ def _obj_arrays(data: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray | None,
     per = I.shape[1] // 3  # numbers per corner: v, or v/t (v/t/n)
     if V.shape[1] < 3 or (T is not None and T.shape[1] < 2) or I.shape[1] % 3 or per not in ((2, 3) if slashed else (1,)):
         return None
+    if slashed and block.count(b"/") != I.shape[0] * 3 * (per - 1):  # a face without slashes among them
+        return None
     I = I.reshape(-1, 3, per) - 1
     F, FT = I[:, :, 0], (I[:, :, 1] if slashed else None)
     if F.min() < 0 or (FT is not None and FT.min() < 0):  # relative indices: the line-by-line reader
         return None
     return V[:, :3].copy(), F, None if T is None else T[:, :2].copy(), FT
+
+
+def _irregular(data: bytes) -> bool:
+    """Whether an OBJ has what the whole-array path does not read: tabs, indented lines, or a comment after
+    data on a line (found by ``#``'s few positions, not a scan per byte)."""
+    if b"\t" in data or b"\n " in data or data[:1] == b" ":
+        return True
+    at = data.find(b"#")
+    while at >= 0:
+        if data[data.rfind(b"\n", 0, at) + 1: at].strip():
+            return True
+        end = data.find(b"\n", at)
+        if end < 0:
+            return False
+        at = data.find(b"#", end)
+    return False
 
 
 def _table(rows: list[bytes], dtype: type) -> np.ndarray:
@@ -128,62 +163,89 @@ def _table(rows: list[bytes], dtype: type) -> np.ndarray:
     return np.array(b" ".join(rows).split(), dtype=dtype).reshape(len(rows), int(counts[0]))
 
 
-def _read_obj_lines(path: Path, data: bytes | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """:func:`read_obj` line by line: every OBJ it reads (polygons, relative indices, mixed forms); ``data``:
-    the file's bytes when already read (as UTF-8, bad bytes replaced, universal newlines, as ``open`` reads)."""
+def _read_obj_lines(path: Path, data: bytes | None = None) -> ObjMesh:
+    """:func:`read_obj` line by line: every OBJ it reads (polygons, relative indices, mixed forms, tabs,
+    indents, comments after data); ``data``: the file's bytes when already read (as UTF-8, a byte order mark
+    skipped, bad bytes replaced, universal newlines, as ``open`` reads)."""
     verts: list[str] = []  # lines, split later: lists would keep the garbage collector busy
     texs: list[str] = []
     fv: list[list[int]] = []
     ft: list[list[int]] = []
-    has_all_vt = True
-    source = (open(path, encoding="utf-8", errors="replace") if data is None
-              else io.StringIO(data.decode("utf-8", errors="replace"), newline=None))
+    no_vt = 0  # the first face without texture coordinates (1-based; 0: none)
+    source = (open(path, encoding="utf-8-sig", errors="replace") if data is None
+              else io.StringIO(data.decode("utf-8-sig", errors="replace"), newline=None))
     with source as fh:
-        try:
-            for text in fh:
-                if text.startswith("v "):
-                    verts.append(text[2:])
-                elif text.startswith("vt "):
-                    texs.append(text[3:])
-                elif text.startswith("f "):
-                    nv_now, nt_now = len(verts), len(texs)
-                    vi, ti = [], []
-                    for t in text[2:].split():
-                        parts = t.split("/")
-                        i = int(parts[0])
-                        vi.append(i - 1 if i > 0 else nv_now + i)
-                        if len(parts) > 1 and parts[1]:
-                            j = int(parts[1])
-                            ti.append(j - 1 if j > 0 else nt_now + j)
-                        else:
-                            has_all_vt = False
-                    fv.append(vi)
-                    ft.append(ti)
-        except ValueError:
-            raise _unreadable(path, f"a face index is not an integer in the line {text.strip()[:60]!r}") from None
+        for number, text in enumerate(fh, 1):
+            key, _, rest = text.split("#", 1)[0].strip().partition(" ")
+            if "\t" in key:
+                key, _, more = key.partition("\t")
+                rest = f"{more} {rest}"
+            if key == "v":
+                verts.append(rest)
+            elif key == "vt":
+                texs.append(rest)
+            elif key == "f":
+                vi, ti = _face_indices(rest, len(verts), len(texs), path, number)
+                fv.append(vi)
+                ft.append(ti)
+                if len(ti) < len(vi) and not no_vt:
+                    no_vt = len(fv)
     if not verts:
         raise MeshError(f"{path} has no vertices ('v' lines)", ["empty"])
     V = _coordinates(verts, 3, "vertex", path)
     F = fan_triangulate(fv, path)
-    if texs and has_all_vt and fv:
-        return _with_uv(V, F, _coordinates(texs, 2, "texture coordinate", path), fan_triangulate(ft, path), path)
-    return V, F, None
+    if not texs or not fv:
+        return ObjMesh(V, F, None)
+    if not any(ft):
+        return _with_uv(V, F, np.zeros((len(texs), 2)), None, path)
+    if no_vt:
+        return ObjMesh(V, F, None, f"face {no_vt} has no texture coordinates (f a/t b/t c/t)")
+    return _with_uv(V, F, _coordinates(texs, 2, "texture coordinate", path), fan_triangulate(ft, path), path)
 
 
-def _with_uv(V: np.ndarray, F: np.ndarray, T: np.ndarray | None, FT: np.ndarray | None, path: Path
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """``(V, F, uv or None)``: ``uv (nv, 2)`` when the faces' texture indices ``FT`` give every vertex one
-    texture coordinate of ``T``."""
-    uv = None
-    if T is not None and FT is not None and FT.size:
-        if FT.min() >= 0 and FT.max() < T.shape[0]:
-            # one texture coordinate per vertex: every (v, vt) pair agrees per v
-            per_v = np.full(V.shape[0], -1, np.int64)
-            ok = (F.ravel() >= 0) & (F.ravel() < V.shape[0])
-            per_v[F.ravel()[ok]] = FT.ravel()[ok]
-            if ok.all() and np.array_equal(T[per_v[F.ravel()]], T[FT.ravel()]):
-                uv = np.where((per_v >= 0)[:, None], T[np.maximum(per_v, 0)], np.nan)
-    return V, F, uv
+def _face_indices(rest: str, nv: int, nt: int, path: Path, number: int) -> tuple[list[int], list[int]]:
+    """``(vertex ids, texture ids)`` (0-based) of an ``f`` line's corners ``rest``, with ``nv`` vertices and
+    ``nt`` texture coordinates read before it (negative indices count back from there)."""
+    vi, ti = [], []
+    for token in rest.split():
+        parts = token.split("/")
+        for ids, count, index in ((vi, nv, parts[0]), (ti, nt, parts[1] if len(parts) > 1 else "")):
+            if not index:
+                continue
+            try:
+                i = int(index)
+            except ValueError:
+                raise _unreadable(path, f"line {number}: a face index is not an integer in "
+                                        f"{('f ' + rest.strip())[:60]!r}") from None
+            if i == 0:
+                raise _unreadable(path, f"line {number}: face index 0 in {('f ' + rest.strip())[:60]!r} (OBJ "
+                                        "indices start at 1; negative ones count back)")
+            ids.append(i - 1 if i > 0 else count + i)
+    return vi, ti
+
+
+def _with_uv(V: np.ndarray, F: np.ndarray, T: np.ndarray | None, FT: np.ndarray | None, path: Path) -> ObjMesh:
+    """The mesh with ``uv (nv, 2)`` when the faces' texture indices ``FT`` give every vertex one texture
+    coordinate of ``T``, else with the reason it has none."""
+    if T is None:
+        return ObjMesh(V, F, None)
+    if FT is None or not FT.size:
+        return ObjMesh(V, F, None, "its faces name no texture coordinates (f a/t b/t c/t)")
+    if FT.min() < 0 or FT.max() >= T.shape[0]:
+        bad = np.flatnonzero(((FT < 0) | (FT >= T.shape[0])).any(1))
+        return ObjMesh(V, F, None, f"faces refer to texture coordinates outside 1..{T.shape[0]}: {first_few(bad)}")
+    ok = (F.ravel() >= 0) & (F.ravel() < V.shape[0])
+    if not ok.all():  # read_mesh names the faces
+        return ObjMesh(V, F, None)
+    per_v = np.full(V.shape[0], -1, np.int64)
+    per_v[F.ravel()] = FT.ravel()
+    a, b = T[per_v[F.ravel()]], T[FT.ravel()]
+    differ = ((a != b) & ~(np.isnan(a) & np.isnan(b))).any(1)  # one texture coordinate per vertex?
+    if differ.any():
+        seam = np.unique(F.ravel()[differ])
+        return ObjMesh(V, F, None, f"{seam.size} vertices have several texture coordinates (a seam; first: "
+                                   f"{', '.join(str(int(i) + 1) for i in seam[:5])}), one each is needed")
+    return ObjMesh(V, F, np.where((per_v >= 0)[:, None], T[np.maximum(per_v, 0)], np.nan))
 
 
 def _off_counts(head: list[str], path: Path) -> tuple[int, int]:
@@ -204,7 +266,7 @@ def _off_counts(head: list[str], path: Path) -> tuple[int, int]:
 
 def read_off(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """``(V (nv, 3), F (nf, 3))`` of an OFF file (COFF/NOFF columns beyond x, y, z ignored)."""
-    with open(path, encoding="utf-8", errors="replace") as fh:
+    with open(path, encoding="utf-8-sig", errors="replace") as fh:
         lines = (t for t in (ln.split("#", 1)[0].split() for ln in fh) if t)
         first = next(lines, None)
         if first is None or not first[0].upper().endswith("OFF"):

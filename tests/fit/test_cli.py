@@ -314,6 +314,22 @@ def test_check_passes_on_c1_and_fails_on_broken_surface(c1_file, tmp_path):
     assert run("check", broken, "--tolerance", "0.1", "--quiet").returncode == 0
 
 
+def test_check_names_and_skips_malformed_optional_keys(c1_file, tmp_path, capsys):
+    """Optional keys another writer got wrong do not make check an internal error: it says which it skipped."""
+    s = SplineSurface.load(c1_file)
+    extras = dict(fit_weight_names=np.array(["bend", "tilt"]), fit_weights=np.array(["a", "b"]),
+                  fit_energy_names=np.array(["bend"]), fit_energies=np.array([2.0]),
+                  approx_deviation_names=np.array(["max"]), approx_deviation=np.array([[1.0, 2.0]]))
+    SplineSurface(s.uv, s.faces, s.ctrl, extras=extras).save(tmp_path / "odd.npz")
+    capsys.readouterr()
+    assert cli.main(["check", str(tmp_path / "odd.npz"), "--json", "--quiet"]) == 0
+    out, err = capsys.readouterr()
+    rep = json.loads(out)
+    assert rep["ok"] and rep["energies"] == {"bend": 2.0} and "weights" not in rep
+    assert rep["ignored_keys"] == ["fit_weight_names", "fit_weights", "approx_deviation_names", "approx_deviation"]
+    assert "ignored malformed optional keys: fit_weight_names" in err
+
+
 @pytest.mark.parametrize("suffix", [".obj", ".ply", ".stl", ".glb", ".json", ".png"])
 def test_export_each_format(c1_file, tmp_path, suffix):
     out = tmp_path / f"out{suffix}"
@@ -664,3 +680,16 @@ def test_fit_param_uv_keeps_the_files_texture_coordinates(tmp_path, capsys, mirr
     np.testing.assert_array_equal(s.uv, md.uv)
     assert bool(s.extras["uv_mirrored"]) is mirror
     np.testing.assert_allclose(s.evaluate(*s.locate(md.uv)), md.V, rtol=0, atol=1e-9)
+
+
+def test_fit_param_uv_refuses_texture_coordinates_it_cannot_use(tmp_path, capsys):
+    """--param uv where a face has no vt: exit 2 naming it, not (x, y) in their place without a word."""
+    mesh = tmp_path / "t.obj"
+    mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 2 0\nvt 0 2\nvt 2 2\n"
+                    "f 1/1 2/2 3/3\nf 2 4 3\n")
+    (tmp_path / "s.npz").write_bytes(b"old")
+    capsys.readouterr()
+    assert cli.main(["fit", str(mesh), "-o", str(tmp_path / "s.npz"), "--param", "uv", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "face 2 has no texture coordinates" in err and len(err.strip().splitlines()) == 1
+    assert (tmp_path / "s.npz").read_bytes() == b"old"

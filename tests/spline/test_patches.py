@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from trispline.spline.testing import domains
 from trispline.spline.errors import InputError
 from trispline.spline.patches import evaluate, evaluate_derivatives, evaluate_grid, numeric_continuity
-from trispline.spline.bernstein import bary_grid
+from trispline.spline.bernstein import PRODUCT_MONOMIALS, bary_grid, basis, gram_from_moments, product_monomials
 from trispline.spline.polynomial import polynomial_control_net, random_polynomial
 from trispline.spline.topology import Triangulation, face_bary_gradients
 from triangulations import SMALL_DOMAINS
@@ -195,3 +195,17 @@ def test_spline_from_space_is_c1_and_perturbation_breaks_only_c1(name, seed):
     rb = numeric_continuity(uv, faces, bad)
     assert rb["c0_relative"] < 1e-12
     assert rb["c1_relative"] > 1e-4
+
+
+@given(seed=st.integers(0, 10_000), n=st.integers(1, 50), spread=st.sampled_from([0.0, 0.3]))
+@settings(max_examples=30)
+def test_gram_from_degree_10_moments_equals_sum_of_basis_products(seed, n, spread):
+    """Sums of weighted ``basis basis^T`` over samples (also outside the triangle) come from 66 moments."""
+    rng = np.random.default_rng(seed)
+    bary = rng.dirichlet([1.0, 1.0, 1.0], n) + spread * rng.normal(size=(n, 3))
+    w = rng.uniform(0.1, 3.0, n)
+    B = basis(bary)
+    expected = np.einsum("n,ni,nj->ij", w, B, B)
+    got = gram_from_moments(product_monomials(bary) @ w)
+    assert product_monomials(bary).shape == (PRODUCT_MONOMIALS, n)
+    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-13 * np.abs(expected).max())
