@@ -51,6 +51,10 @@ CURVATURE_POINTS = 200
 CURVATURE_RESOLUTION = 0.5
 #: A cell with fewer vertices than this joins the nearest valid cell.
 MIN_CELL_POINTS = 12
+#: A vertex joined to a valid cell farther than this (its local coordinate, 0.5 at the cell's edge) is
+#: fitted again on coarser cells (:func:`_adaptive_fits`): beyond the next cell the quadric extrapolates
+#: (a coarse region beside a dense one, whose spacing sets the cells: a clean square's corner 0.16 off).
+FAR_JOIN = 1.5
 #: Smallest variance of a valid cell's local vertex coordinates in any direction (a full cell: 1/12).
 MIN_CELL_SPREAD = 0.02
 #: Cauchy weight scale, in noise units (95% efficiency under Gaussian noise).
@@ -100,6 +104,7 @@ class ScanAnalysis:
         the mesh's edges (clipped at 3 ``noise``): about -0.1 where they are noise, which is independent
         vertex to vertex, 0.25-0.7 where they are the quadrics' model error, which varies smoothly
         (:func:`edge_correlation`)
+    leverage : (n,) each vertex's leverage ``h`` in its cell's fit (None: not known)
     """
 
     residual: np.ndarray
@@ -119,6 +124,7 @@ class ScanAnalysis:
     points: np.ndarray
     coarse_noise: float
     noise_correlation: float = 0.0
+    leverage: np.ndarray | None = None
 
     @property
     def noise_share(self) -> float:
@@ -234,7 +240,9 @@ class _Grid:
         self.valid = valid if valid.any() else np.ones(self.shape, bool)
         self.cell = _fill(np.arange(self.n).reshape(self.shape), self.valid).reshape(-1)[cell]
         ij = np.column_stack([self.cell % nx, self.cell // nx])
-        m4 = _monomials((uv - self.origin) / step - ij - 0.5, _EXP4)
+        local = (uv - self.origin) / step - ij - 0.5  # in [-0.5, 0.5]^2 inside the cell
+        self.far = np.abs(local).max(1) > FAR_JOIN  # joined to a cell beyond the next: its fit extrapolates
+        m4 = _monomials(local, _EXP4)
         self.m, self.m4 = m4[:, [_EXP4.index(e) for e in _EXP2]], m4
         self.count = np.bincount(self.cell, minlength=self.n)
         # cell-membership matrix: sums over cells are one sparse product (faster than a bincount per column)
@@ -293,8 +301,8 @@ def _level(stud: np.ndarray, grid: _Grid, diagonal: float) -> np.ndarray:
 
 def _robust_fit(grid: _Grid, V: np.ndarray, diagonal: float) -> tuple[np.ndarray, ...]:
     """The robust quadric fits of ``grid``'s cells to ``V (k, 3)``: per vertex ``(r, nrm, loo, stud,
-    level, w)``, the signed residual, the quadric's normal ``(k, 3)``, the leave-one-out and the
-    studentized residual, the cell's level and the Cauchy weight of the last refit."""
+    level, w, lev)``, the signed residual, the quadric's normal ``(k, 3)``, the leave-one-out and the
+    studentized residual, the cell's level, the Cauchy weight of the last refit and the leverage."""
     w = np.ones(V.shape[0])
     for _ in range(REFITS + 1):
         C, Ainv, ref = grid.fit(V, w)
@@ -304,7 +312,7 @@ def _robust_fit(grid: _Grid, V: np.ndarray, diagonal: float) -> tuple[np.ndarray
         stud = _studentized(r, lev)
         level = _level(stud, grid, diagonal)
         w = 1.0 / (1.0 + (loo / (CAUCHY_SCALE * level)) ** 2)
-    return r, nrm, loo, stud, level, w
+    return r, nrm, loo, stud, level, w, lev
 
 
 def _adaptive_fits(V: np.ndarray, uv: np.ndarray, step: float, diagonal: float) -> tuple[np.ndarray, ...]:
@@ -312,13 +320,17 @@ def _adaptive_fits(V: np.ndarray, uv: np.ndarray, step: float, diagonal: float) 
     holds more than :data:`SPLIT_POINTS` times :data:`POINTS_PER_CELL` (a region the map compresses:
     one uniform cell would span a large, curved part of the surface) is fitted again on a grid of half
     the step over those vertices alone, down to :data:`MAX_LEVELS` halvings or :data:`MAX_LEVEL_CELLS`
-    times their count in cells."""
+    times their count in cells; a vertex in a region too sparse for its cells (joined to a valid cell
+    beyond :data:`FAR_JOIN`) on grids of twice the step until it is not."""
     n = V.shape[0]
-    out = [np.empty(n), np.empty((n, 3)), np.empty(n), np.empty(n), np.empty(n), np.empty(n)]
+    out = [np.empty(n), np.empty((n, 3)), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)]
     todo = np.arange(n)
+    far = np.zeros(n, bool)
     for k in range(MAX_LEVELS + 1):
         grid = _Grid(uv[todo], step / 2**k)
         res = _robust_fit(grid, V[todo], diagonal)
+        if k == 0:
+            far = grid.far
         dense = grid.count[grid.cell] > SPLIT_POINTS * POINTS_PER_CELL
         nxt = todo[dense]
         span = np.ptp(uv[nxt], axis=0) if nxt.size else np.zeros(2)
@@ -330,6 +342,15 @@ def _adaptive_fits(V: np.ndarray, uv: np.ndarray, step: float, diagonal: float) 
         if not more:
             break
         todo = nxt
+    for k in range(1, MAX_LEVELS + 1):  # sparse regions: the vertices a fine cell could only extrapolate
+        if not far.any():
+            break
+        grid = _Grid(uv, step * 2**k)
+        res = _robust_fit(grid, V, diagonal)
+        ok = far & ~grid.far
+        for o, x in zip(out, res):
+            o[ok] = x[ok]
+        far &= grid.far
     return tuple(out)
 
 
@@ -350,7 +371,7 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
     auv = np.abs(signed_areas(uv, F))
     unit = float(np.sqrt(max(float(auv.sum()), 1e-300) / n))  # uv spacing of the scan
     diagonal = float(np.linalg.norm(V.max(0) - V.min(0)))
-    r, nrm, loo, stud, level, w = _adaptive_fits(V, uv, unit * np.sqrt(POINTS_PER_CELL), diagonal)
+    r, nrm, loo, stud, level, w, lev = _adaptive_fits(V, uv, unit * np.sqrt(POINTS_PER_CELL), diagonal)
     noise = MAD_TO_SIGMA * float(np.median(stud))
     points = max(int(curvature_points), MIN_CELL_POINTS)
     for _ in range(2):  # a noisy scan needs larger cells: the noise's share falls like (points per cell)^-3
@@ -379,7 +400,7 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
                         step=coarse.step, shape=coarse.shape, curvature=kappa, scale=scale, scan_spacing=scan_spacing,
                         area=s3.reshape(coarse.shape), diagonal=diagonal, points=V,
                         coarse_noise=MAD_TO_SIGMA * float(np.median(studc)),
-                        noise_correlation=edge_correlation(np.clip(loo, -3 * noise, 3 * noise), F))
+                        noise_correlation=edge_correlation(np.clip(loo, -3 * noise, 3 * noise), F), leverage=lev)
 
 
 def edge_correlation(x: np.ndarray, F: np.ndarray) -> float:

@@ -49,7 +49,7 @@ from .fit import (APPROX_WEIGHTS, corrected_location, cross_validated_weight, fi
 from .problem import CORNER_MODES
 from .refine import Round, measure, pick_vertices
 
-__all__ = ["ApproxResult", "approximate_surface", "APPROX_STAGES", "LOSS_NAMES", "DEFAULT_BUDGET_FRACTION",
+__all__ = ["ApproxResult", "approximate_surface", "APPROX_STAGES", "LOSS_NAMES", "DEFAULT_BUDGET_FRACTION", "DEFAULT_BUDGET_MIN",
            "surface_extras"]
 
 #: Every data loss: the plain one and the robust ones.
@@ -59,6 +59,8 @@ APPROX_STAGES = ("parameterize", "domain", "smoothing", "fit", "deviation", "ref
 #: Vertex budget with a tolerance and no ``n_vertices``: this fraction of the scan (plus what the outline
 #: needs where it alone needs more: :class:`~.domain.BoundaryBudgetError`).
 DEFAULT_BUDGET_FRACTION = 0.10
+#: ... and at least this many (a small scan's 10% would be its first domain: no room to refine).
+DEFAULT_BUDGET_MIN = 64
 #: With a tolerance, the first coarse domain has this fraction of the scan (at most the budget).
 INITIAL_FRACTION = 0.005
 #: ... and at least this many vertices.
@@ -78,6 +80,15 @@ BUDGET_FLOOR = 1.0
 #: shape the spline misses; the noise estimate alone is no test, as on clean scans with creases it is the
 #: local quadrics' error). Such a scan is fitted at the whole budget at once.
 BUDGET_GAIN = 0.9
+#: A budget alone: a round with more vertices (or the final fit) replaces the best one so far unless its
+#: inliers' worst deviation (:attr:`~.refine.Round.data_worst`) is larger by more than this share ...
+WORST_TIE = 0.1
+#: ... or its surface-to-scan gap (:attr:`~.refine.Round.gap_worst`) larger than this many times the best's
+#: (or its data's). The gap's floor is the scan's own faceting, which a flatter, worse surface can sit nearer
+#: (a 30 x 30 sine grid: 1.6e-4 at 16 vertices, 1.9e-4 at 50 and for the true surface), so comparing the
+#: larger of the two kept a seed of a quarter of the budget; a patch swinging out where it has few data
+#: (what the gap is for) is many times it.
+GAP_TIE = 1.5
 #: Refinement rounds at most.
 MAX_ROUNDS = 20
 #: Tries of a refinement round's insertion, each with the faces' next candidates (:func:`_grow`).
@@ -190,7 +201,8 @@ def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corn
     if n_vertices is not None:
         budget = int(n_vertices)
     else:
-        budget = max(16, int(round((DEFAULT_FRACTION if tol is None else DEFAULT_BUDGET_FRACTION) * n)))
+        budget = (max(16, int(round(DEFAULT_FRACTION * n))) if tol is None
+                  else max(DEFAULT_BUDGET_MIN, int(round(DEFAULT_BUDGET_FRACTION * n))))
     return _Options(tolerance=tol, budget=min(budget, n), refine=tol is not None, corners=corners, loss=loss,
                     weights=APPROX_WEIGHTS if weights is None else weights, auto=weights is None,
                     budget_given=n_vertices is not None)
@@ -489,7 +501,7 @@ def _refine(V: np.ndarray, F: np.ndarray, dom: CoarseDomain, opt: _Options, scal
         record = dict(state.record(), round=r + 1, tolerance=opt.tolerance, budget=opt.budget)
         history.append(record)
         stage("deviation", record=record)
-        if best is None or state.worst < best.worst:  # with a tolerance, the inliers' maximum deviation
+        if best is None or _better(state, best, opt):  # with a tolerance, the inliers' maximum deviation
             best = state
         if not opt.refine and r == 1 and _at_noise_floor(history, dom.stats.noise):
             stop = "noise floor"
@@ -510,6 +522,16 @@ def _refine(V: np.ndarray, F: np.ndarray, dom: CoarseDomain, opt: _Options, scal
             break
         dom = new
     return best, history, stop
+
+
+def _better(state: Round, best: Round, opt: _Options) -> bool:
+    """Whether ``state`` (more vertices, or the final fit) should replace ``best``: with a tolerance a
+    smaller inliers' maximum; with a budget alone, a worst deviation not larger by more than
+    :data:`WORST_TIE` and a surface-to-scan gap within :data:`GAP_TIE` of the best's."""
+    if opt.refine:
+        return state.worst < best.worst
+    return (state.data_worst <= best.data_worst * (1.0 + WORST_TIE)
+            and state.gap_worst <= GAP_TIE * max(best.gap_worst, best.data_worst))
 
 
 def _at_noise_floor(history: list[dict], noise: float) -> bool:
@@ -545,7 +567,8 @@ def _final(V: np.ndarray, F: np.ndarray, best: Round, opt: _Options, scale: np.n
         located, unreached = _located(best.dom, state)
     stage("final")
     # the final fit, unless it would break a tolerance the best round met (or do worse)
-    keep = opt.tolerance is None or kept.max_deviation <= max(opt.tolerance, best.max_deviation)
+    keep = (_better(kept, best, opt) if opt.tolerance is None
+            else kept.max_deviation <= max(opt.tolerance, best.max_deviation))
     return (kept, weights) if keep else (best, opt.weights)
 
 

@@ -14,8 +14,9 @@ re-triangulates (boundary vertices move chords out toward the scan's outline).
 With a robust loss a scan vertex is **rejected** (an outlier: the tolerance does not
 apply to it) when the scan analysis marks it a spike (far off the robust quadric of its
 neighbours, :attr:`~.analysis.ScanAnalysis.spike`; on the outline, also rougher than
-:data:`OUTLINE_REJECT_ROUGHNESS`) and the fit leaves it farther than
-:data:`REJECT_SIGMAS` times the scan's noise away. Both are needed: a coherent region the coarse
+:data:`OUTLINE_REJECT_ROUGHNESS`), the fit leaves it farther than
+:data:`REJECT_SIGMAS` times the scan's noise away, and that quadric's distance accounts for
+:data:`REJECT_AGREEMENT` of the fit's (the point, not the surface, is off). Both are needed: a coherent region the coarse
 surface cannot follow yet is far from the fit but not a spike, and stays an inlier, so
 refinement fixes it instead of ignoring it. With the plain loss nothing is rejected.
 """
@@ -39,6 +40,11 @@ REJECT_SIGMAS = 6.0
 #: boundary vertex at 5.5, the scan's largest deviation at 2%), a 50-sigma outlier's is 37-51 (generated
 #: scans, sigma 1e-3 and 1e-4).
 OUTLINE_REJECT_ROUGHNESS = 10.0
+#: ... and only where its own leave-one-out residual (its distance from the scan's local quadric without it)
+#: is at least this share of its deviation: else the surface, not the point, is off (a clean square's corner
+#: cut off by a coarse chord: residual 1e-9 of the diagonal, deviation 4% of it, was rejected and the
+#: tolerance reported met); a spike's residual is about its deviation.
+REJECT_AGREEMENT = 0.5
 #: A round at most multiplies the vertex count by this.
 GROWTH = 2.0
 #: Candidates closer to their face's boundary than this barycentric coordinate are less preferred.
@@ -79,12 +85,22 @@ class Round:
 
     @property
     def worst(self) -> float:
-        """The inliers' largest :attr:`pick_distance` (model units), or a larger :attr:`face_gap`: with
-        :attr:`outline` and :attr:`face_gap`, what a budget's refinement minimises (the surface-to-scan side
-        included)."""
+        """The larger of :attr:`data_worst` and :attr:`gap_worst` (model units)."""
+        return max(self.data_worst, self.gap_worst)
+
+    @property
+    def data_worst(self) -> float:
+        """The inliers' largest :attr:`pick_distance` (model units): the deviation, with :attr:`outline` the
+        outline's gaps too."""
         d = self.pick_distance[~self.rejected]
-        worst = float(d.max()) if d.size else 0.0
-        return worst if self.face_gap is None else max(worst, float(self.face_gap.max(initial=0.0)))
+        return float(d.max()) if d.size else 0.0
+
+    @property
+    def gap_worst(self) -> float:
+        """The largest :attr:`face_gap` (0 without): the surface-to-scan side, at least the scan's own
+        faceting (the distance of a smooth surface from flat faces), so a surface nearer the truth can have
+        a larger one than a flatter, worse one."""
+        return 0.0 if self.face_gap is None else float(self.face_gap.max(initial=0.0))
 
     @property
     def pick_distance(self) -> np.ndarray:
@@ -114,7 +130,8 @@ def measure(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit, located: tuple[np.
     dev = surface_deviation(fit.surface, V)
     rejected = np.zeros(V.shape[0], bool)
     if robust:
-        rejected = dom.analysis.spike & (dev.distance > REJECT_SIGMAS * dom.stats.noise)
+        rejected = (dom.analysis.spike & (dev.distance > REJECT_SIGMAS * dom.stats.noise)
+                    & (dom.analysis.residual >= REJECT_AGREEMENT * dev.distance))
         ids = np.concatenate(dom.loops)
         rejected[ids] &= dom.analysis.roughness[ids] >= OUTLINE_REJECT_ROUGHNESS
     return Round(dom=dom, fit=fit, located=located, deviation=dev, rejected=rejected,
