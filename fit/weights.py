@@ -11,6 +11,8 @@ __all__ = ["FitWeights", "TERM_WEIGHTS"]
 
 #: The energy terms' weights, in the order of :data:`trispline.fit.energy.TERMS`.
 TERM_WEIGHTS = ("bend", "tilt", "local", "data", "angle")
+#: Largest term weight: only the weights' ratios matter, and the terms' sums overflow near 1e300.
+MAX_WEIGHT = 1e100
 
 
 @dataclass(frozen=True)
@@ -45,6 +47,9 @@ class FitWeights:
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise InputError(f"weight {name} must be finite and >= 0, got {v}")
+            if v > MAX_WEIGHT:
+                raise InputError(f"weight {name} is {v:g}, above {MAX_WEIGHT:g}: only the weights' ratios matter, "
+                                 "so scale them all down")
         if self.bend <= 0 and self.local <= 0:
             raise InputError("at least one of the bend and local weights must be positive")
         if self.fit_degree not in (2, 3):

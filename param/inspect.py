@@ -26,7 +26,8 @@ from .validate import (ValidatedMesh, as_mesh_arrays, folded_edges, repeated_ver
 
 
 def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False, repair: bool = False,
-                 param: str | None = None, uv: np.ndarray | None = None) -> dict[str, Any]:
+                 param: str | None = None, uv: np.ndarray | None = None,
+                 vertex_ids: np.ndarray | None = None) -> dict[str, Any]:
     """Counts and checks of a mesh, and the verdict of ``validate_mesh(V, F, keep_largest=...)``.
 
     Parameters
@@ -43,6 +44,8 @@ def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False, re
         distortion goes into ``rep["distortion"]`` (``method``, the percentiles, ``score``,
         ``flipped_before_repair``, ``degenerate_before_repair``, ``repaired``, ``warning``,
         ``reason``); a map that cannot be made fold-free rejects the mesh.
+    vertex_ids : (nv,) int, optional
+        Each vertex's number in the user's file, for the messages (as :func:`validate_mesh`).
     uv : (nv, 2) float64, optional
         The mesh's own coordinates for ``param="uv"`` (e.g. OBJ texture coordinates), one
         row per input vertex; without them ``"uv"`` maps ``V[:, :2]``.
@@ -93,7 +96,7 @@ def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False, re
     rep.update(fold_report(V, F) if finite.all() else dict(folded_edges=0, worst_fold_degrees=None))
     if rep["manifold"]:
         _loop_counts(rep, edges, count, nv)
-    rep["validation"] = _validation(V, F, keep_largest, repair, (param, uv), rep)
+    rep["validation"] = _validation(V, F, keep_largest, repair, (param, uv), rep, vertex_ids)
     return rep
 
 
@@ -118,7 +121,8 @@ def _loop_counts(rep: dict[str, Any], edges: np.ndarray, count: np.ndarray, nv: 
 
 
 def _validation(V: np.ndarray, F: np.ndarray, keep_largest: bool, repair: bool,
-                param: tuple[str | None, np.ndarray | None], rep: dict[str, Any]) -> dict[str, Any]:
+                param: tuple[str | None, np.ndarray | None], rep: dict[str, Any],
+                vertex_ids: np.ndarray | None = None) -> dict[str, Any]:
     """The verdict of :func:`validate_mesh` (after :func:`repair_mesh` with ``repair``); on success
     without repair its loop, hole and genus counts go into ``rep``, and with ``param = (method, uv)``
     the distortion."""
@@ -129,7 +133,8 @@ def _validation(V: np.ndarray, F: np.ndarray, keep_largest: bool, repair: bool,
             fixed = repair_mesh(V, F)
             V, F = fixed.V, fixed.F
             uv = None if uv is None else np.asarray(uv)[fixed.source_vertex_index]
-        vm = validate_mesh(V, F, keep_largest=keep_largest)
+            vertex_ids = None if vertex_ids is None else np.asarray(vertex_ids)[fixed.source_vertex_index]
+        vm = validate_mesh(V, F, keep_largest=keep_largest, vertex_ids=vertex_ids)
         if method is not None:
             uv = None if uv is None or vm.kept is None else np.asarray(uv)[vm.kept]
             rep["distortion"] = _distortion(vm, method, uv if method == "uv" else None)

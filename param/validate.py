@@ -166,7 +166,8 @@ def as_mesh_arrays(V, F) -> tuple[np.ndarray, np.ndarray]:
     return V, F
 
 
-def validate_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) -> ValidatedMesh:
+def validate_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False,
+                  vertex_ids: np.ndarray | None = None) -> ValidatedMesh:
     """Check that ``(V, F)`` is a single open genus-0 manifold surface; repair orientation.
 
     Parameters
@@ -176,6 +177,9 @@ def validate_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) -
     keep_largest : bool
         Keep the connected component with the most faces instead of rejecting a
         mesh with several components (vertices are then renumbered; ``kept`` maps back).
+    vertex_ids : (nv,) int, optional
+        The number of each vertex in the user's file, for the messages (a reader that dropped
+        unreferenced vertices renumbered the others); default: their index in ``V``.
 
     Raises
     ------
@@ -184,7 +188,8 @@ def validate_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) -
     """
     V, F = as_mesh_arrays(V, F)
     nv_in, nf_in = V.shape[0], F.shape[0]
-    _check_ids(V, F)
+    ids = np.arange(nv_in) if vertex_ids is None else np.asarray(vertex_ids, np.int64)
+    _check_ids(V, F, ids)
     messages: list[str] = []
     problems: list[tuple[str, str]] = []
     # -- components (optionally keep the largest)
@@ -198,7 +203,7 @@ def validate_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) -
             problems.append(_components_problem(V, F, vlab, ncomp))
     # -- stage 2: independent local problems, reported together
     he, edges, he_edge, edge_count = undirected_edges(F, V.shape[0])
-    problems += _local_problems(V, F, edges, he_edge, edge_count, kept)
+    problems += _local_problems(V, F, edges, he_edge, edge_count, ids if kept is None else ids[kept])
     if problems:
         _raise(problems)
     # -- orientation, then the topology of the oriented surface
@@ -216,12 +221,13 @@ def validate_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False) -
                          kept=kept, kept_faces=kept_faces)
 
 
-def _check_ids(V: np.ndarray, F: np.ndarray) -> None:
-    """Stage 1: problems that make everything else meaningless (raised at once)."""
+def _check_ids(V: np.ndarray, F: np.ndarray, ids: np.ndarray) -> None:
+    """Stage 1: problems that make everything else meaningless (raised at once); ``ids (nv,)``: the
+    vertices' numbers in messages."""
     nv = V.shape[0]
     bad_v = np.flatnonzero(~np.isfinite(V).all(1))
     if bad_v.size:
-        raise MeshError(f"non-finite vertex coordinates (NaN or inf) at vertices {first_few(bad_v)}",
+        raise MeshError(f"non-finite vertex coordinates (NaN or inf) at vertices {first_few(ids[bad_v])}",
                         ["non_finite"])
     problems: list[tuple[str, str]] = []
     out = np.flatnonzero(((F < 0) | (F >= nv)).any(1))
@@ -279,8 +285,8 @@ def _seam_vertices(V: np.ndarray, vlab: np.ndarray) -> int:
 
 
 def _local_problems(V: np.ndarray, F: np.ndarray, edges: np.ndarray, he_edge: np.ndarray,
-                    edge_count: np.ndarray, kept: np.ndarray | None) -> list[tuple[str, str]]:
-    """Zero-area faces, non-manifold edges, bowtie vertices (``kept`` maps vertex ids back)."""
+                    edge_count: np.ndarray, ids: np.ndarray) -> list[tuple[str, str]]:
+    """Zero-area faces, non-manifold edges, bowtie vertices (``ids (nv,)``: the vertices' numbers in messages)."""
     problems = []
     tiny = np.flatnonzero(zero_area_faces(V, F))
     if tiny.size:
@@ -292,13 +298,13 @@ def _local_problems(V: np.ndarray, F: np.ndarray, edges: np.ndarray, he_edge: np
         problems.append((
             "non_manifold_edges",
             f"non-manifold edges (shared by more than 2 faces): {nm.size} edges, first "
-            f"{', '.join(f'({a}, {b})' for a, b in edges[nm[:5]])}; faces {first_few(nm_faces)}",
+            f"{', '.join(f'({a}, {b})' for a, b in ids[edges[nm[:5]]])}; faces {first_few(nm_faces)}",
         ))
     bow = np.flatnonzero(fan_counts(F, he_edge, V.shape[0]) > 1)
     if bow.size:
         problems.append(("bowtie_vertices",
                          f"non-manifold (bowtie) vertices, where separate fans of faces meet: "
-                         f"{first_few(bow if kept is None else kept[bow])}"))
+                         f"{first_few(ids[bow])}"))
     return problems
 
 

@@ -902,3 +902,40 @@ def test_an_interrupt_inside_the_bar_s_update_waits_for_its_end(capfd, monkeypat
         assert time.monotonic() - start < Stages.TICK + 1.5
     finally:
         undo()
+
+
+class _TerminateOnCollect:
+    """Sends SIGTERM from its ``__del__``: the group's handler raises Terminated there, which Python swallows
+    (as in JAX's garbage-collector callback: the fit then wrote its files, exit 0 and a traceback)."""
+
+    def __del__(self) -> None:
+        os.kill(os.getpid(), signal.SIGTERM)
+        for _ in range(1000):
+            pass
+
+
+@pytest.mark.parametrize("kind", ["SIGTERM", "SIGINT"])
+def test_a_signal_swallowed_while_outputs_are_written_leaves_none(tmp_path, capsys, interruptible, kind):
+    """SIGTERM / Ctrl-C swallowed while a group's files are written: the commit raises it and writes nothing;
+    exit 143 / 130 with one line and no 'Exception ignored' report."""
+    from trispline.fit.cli import common
+
+    def make_parser():
+        parser = common.Parser(prog="trispline")
+
+        def command(args, ui):
+            with atomic.AtomicOutputs() as group:
+                group.path(tmp_path / "out.txt").write_text("whole")
+                (_TerminateOnCollect if kind == "SIGTERM" else _InterruptOnCollect)()
+            return 0
+
+        parser.set_defaults(func=command)
+        return parser
+
+    (tmp_path / "out.txt").write_text("old")
+    capsys.readouterr()
+    assert common.run_cli(make_parser, []) == (128 + signal.SIGTERM if kind == "SIGTERM" else 130)
+    err = capsys.readouterr().err
+    assert err.strip() in ("trispline: terminated", "trispline: interrupted") and "Exception ignored" not in err
+    assert (tmp_path / "out.txt").read_text() == "old" and [p.name for p in tmp_path.iterdir()] == ["out.txt"]
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL

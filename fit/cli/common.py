@@ -129,16 +129,18 @@ class Interrupts:
             return lambda: None
         previous_hook = sys.unraisablehook
 
-        def hook(unraisable: Any) -> None:
-            if not isinstance(unraisable.exc_value, KeyboardInterrupt):
+        def hook(unraisable: Any) -> None:  # raised again at the next check, or before any output is committed
+            if not isinstance(unraisable.exc_value, (KeyboardInterrupt, atomic.Terminated)):
                 previous_hook(unraisable)
 
         signal.signal(signal.SIGINT, cls.handler)
         sys.unraisablehook = hook
+        undo_check = atomic.add_commit_check(cls.check)
 
         def undo() -> None:
             signal.signal(signal.SIGINT, signal.default_int_handler)
             sys.unraisablehook = previous_hook
+            undo_check()
 
         return undo
 

@@ -309,7 +309,7 @@ def _load_input(args: argparse.Namespace, ui: UI) -> _Input:
     if getattr(args, "repair", False):
         V, F, kept, file_uv, repair = _repair(ui, V, F, kept, file_uv, source)
     with ui.stages(("check",), "load"):  # its messages after the bar (1M faces: ~3 s)
-        vm = validate_mesh(V, F, keep_largest=args.keep_largest)
+        vm = validate_mesh(V, F, keep_largest=args.keep_largest, vertex_ids=kept)  # messages: the file's numbers
     for m in vm.messages:
         ui.warn(m)
     # an approximating fit need not pass the folds

@@ -93,7 +93,7 @@ def cmd_info(args: argparse.Namespace, ui: UI) -> int:
 
     md = read_mesh(args.mesh)
     report = inspect_mesh(md.V, md.F, keep_largest=args.keep_largest, repair=args.repair, param=args.param,
-                          uv=md.uv)
+                          uv=md.uv, vertex_ids=md.kept if md.dropped else None)
     report["fit"] = _fit_verdict(report.pop("validation"))
     if report["fit"]["accepted"] and not args.repair and not args.keep_largest:  # fit measures it in the domain
         from trispline.param import sliver_message

@@ -116,10 +116,13 @@ def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
 
 
 class _SigtermGuard:
-    """SIGTERM raises :class:`Terminated` while at least one group is open (main thread only)."""
+    """SIGTERM raises :class:`Terminated` while at least one group is open (main thread only), and is
+    remembered: raised where Python swallows exceptions (a garbage-collector callback such as JAX's), it is
+    raised again when a group commits, which then writes nothing."""
 
     depth = 0
     previous: object = None
+    pending = False
 
     @classmethod
     def enter(cls) -> None:
@@ -128,6 +131,7 @@ class _SigtermGuard:
         if cls.depth == 0:
             if signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
                 return  # the program handles (or ignores) SIGTERM itself
+            cls.pending = False
             cls.previous = signal.signal(signal.SIGTERM, _raise_terminated)
         cls.depth += 1
 
@@ -141,7 +145,20 @@ class _SigtermGuard:
 
 
 def _raise_terminated(signum: int, frame: object) -> None:
+    _SigtermGuard.pending = True
     raise Terminated(128 + signum)
+
+
+#: Callables run just before a group's files are renamed onto their targets (inside the signal block); one
+#: that raises stops the commit and the group writes nothing (:func:`add_commit_check`).
+_COMMIT_CHECKS: list[Callable[[], None]] = []
+
+
+def add_commit_check(check: Callable[[], None]) -> Callable[[], None]:
+    """Run ``check()`` before every commit (e.g. raise an interrupt that a library swallowed, so that a
+    command cut short writes nothing); returns the undo."""
+    _COMMIT_CHECKS.append(check)
+    return lambda: _COMMIT_CHECKS.remove(check) if check in _COMMIT_CHECKS else None
 
 
 @contextmanager
@@ -202,6 +219,15 @@ class AtomicOutputs:
         """Rename every temporary file onto its target; returns the targets."""
         done = []
         with _signals_blocked():
+            if _SigtermGuard.pending:  # a SIGTERM swallowed while the files were written
+                self.discard()
+                raise Terminated(128 + signal.SIGTERM)
+            for check in list(_COMMIT_CHECKS):
+                try:
+                    check()
+                except BaseException:
+                    self.discard()
+                    raise
             try:
                 for target, tmp in self._pending:
                     os.chmod(tmp, _file_mode(target))  # mkstemp creates 0o600

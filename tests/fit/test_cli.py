@@ -693,3 +693,15 @@ def test_fit_param_uv_refuses_texture_coordinates_it_cannot_use(tmp_path, capsys
     err = capsys.readouterr().err
     assert "face 2 has no texture coordinates" in err and len(err.strip().splitlines()) == 1
     assert (tmp_path / "s.npz").read_bytes() == b"old"
+
+
+def test_mesh_problems_name_the_files_vertex_numbers_after_unused_ones_are_dropped(tmp_path, capsys):
+    """Two triangles meeting at one vertex (a bowtie), after an unused first vertex: the message names the
+    bowtie by its number in the file (3), not in the mesh without the unused one (2)."""
+    mesh = tmp_path / "bow.obj"
+    mesh.write_text("v 9 9 9\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 2 1 0\nv 2 2 0\nf 2 3 4\nf 4 5 6\n")
+    for cmd in (["fit", str(mesh), "-o", str(tmp_path / "s.npz"), "--quiet"], ["info", str(mesh), "--json"]):
+        capsys.readouterr()
+        assert cli.main(cmd) in (2, 3)
+        out = capsys.readouterr()
+        assert "bowtie) vertices, where separate fans of faces meet: 1 (first: 3)" in out.err + out.out

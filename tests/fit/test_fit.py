@@ -187,7 +187,8 @@ def test_input_errors(kwargs, match):
 @pytest.mark.parametrize(
     "kw, match",
     [(dict(bend=-1.0), "bend"), (dict(tilt=np.nan), "tilt"), (dict(bend=0.0, local=0.0), "positive"),
-     (dict(fit_degree=5), "fit_degree"), (dict(fit_rings=0), "fit_rings")],
+     (dict(fit_degree=5), "fit_degree"), (dict(fit_rings=0), "fit_rings"),
+     (dict(bend=1e308, tilt=1e308, local=1e308), "above 1e\\+100: only the weights' ratios matter")],
 )
 def test_weight_validation(kw, match):
     with pytest.raises(InputError, match=match):
