@@ -497,7 +497,7 @@ def _refine(V: np.ndarray, F: np.ndarray, dom: CoarseDomain, opt: _Options, scal
         fit, located = _round_fit(V, dom, opt, scale)
         stage("fit")
         state = measure(dom, V, fit, located, scale is not None, seconds=time.perf_counter() - t0,
-                        outline=not opt.refine, scan_faces=None if opt.refine else F)
+                        outline=True, scan_faces=None if opt.refine else F)
         record = dict(state.record(), round=r + 1, tolerance=opt.tolerance, budget=opt.budget)
         history.append(record)
         stage("deviation", record=record)
@@ -506,7 +506,7 @@ def _refine(V: np.ndarray, F: np.ndarray, dom: CoarseDomain, opt: _Options, scal
         if not opt.refine and r == 1 and _at_noise_floor(history, dom.stats.noise):
             stop = "noise floor"
             break
-        if opt.refine and state.max_deviation <= opt.tolerance:
+        if opt.refine and state.data_worst <= opt.tolerance:
             stop = "tolerance met"
             break
         if dom.stats.n_vertices >= opt.budget:
@@ -560,7 +560,7 @@ def _final(V: np.ndarray, F: np.ndarray, best: Round, opt: _Options, scale: np.n
                          located=located, unreached=unreached, point_weight=pw, reference=opt.reference,
                          gauss_newton=scale is not None)
         state = measure(best.dom, V, fit, located, scale is not None, seconds=time.perf_counter() - t0,
-                        outline=not opt.refine, scan_faces=None if opt.refine else F)
+                        outline=True, scan_faces=None if opt.refine else F)
         state = dataclasses.replace(state, corrections=k + (not opt.refine))
         if kept is None or state.worst < kept.worst:
             kept = state
@@ -568,8 +568,15 @@ def _final(V: np.ndarray, F: np.ndarray, best: Round, opt: _Options, scale: np.n
     stage("final")
     # the final fit, unless it would break a tolerance the best round met (or do worse)
     keep = (_better(kept, best, opt) if opt.tolerance is None
-            else kept.max_deviation <= max(opt.tolerance, best.max_deviation))
+            else kept.data_worst <= max(opt.tolerance, best.data_worst))
     return (kept, weights) if keep else (best, opt.weights)
+
+
+def _outline_gap(state: Round) -> float:
+    """The largest distance of a kept scan boundary vertex from the surface's boundary curve at its nearest
+    point (:func:`~.refine.outline_gaps`): where a chord spans a notch of the outline, the surface stands
+    this far from the scan; a tolerance holds for it too."""
+    return 0.0 if state.outline is None else float(state.outline[~state.rejected].max(initial=0.0))
 
 
 def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, scale: np.ndarray | None,
@@ -580,14 +587,14 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
     ctrl = np.asarray(fit.surface.ctrl)
     tri = fit.space.tri
     corners = ctrl[np.arange(tri.n_faces)[:, None], CORNER[None, :]]
-    met = opt.tolerance is not None and state.max_deviation <= opt.tolerance
+    met = opt.tolerance is not None and state.data_worst <= opt.tolerance
     nominal = None if scale is None else float(np.min(scale))  # the spikes' scale
     stats = dict(deviation=state.inliers, deviation_all=summary(state.deviation.distance),
                  rejected=int(state.rejected.sum()), unreached=int(np.count_nonzero(fit.unreached)),
                  vertices=int(dom.stats.n_vertices), patches=int(tri.n_faces),
                  tolerance=opt.tolerance, budget=opt.budget, met=bool(met), stop=stop, rounds=len(history),
                  noise=float(dom.stats.noise), noise_correlation=float(dom.stats.noise_correlation), scale=nominal,
-                 scan_vertices=int(V.shape[0]))
+                 scan_vertices=int(V.shape[0]), outline_gap=_outline_gap(state))
     stats.update(data_weight=float(weights.data), cross_validated=opt.auto, corrections=state.corrections)
     settings = dict(loss=opt.loss, corners=opt.corners, tolerance=opt.tolerance, budget=opt.budget, scale=nominal,
                     data_weight=float(weights.data))
@@ -616,7 +623,7 @@ def surface_extras(dom: CoarseDomain, fit, V: np.ndarray, stats: dict, settings:
 
     ``approx_scan_vertices (k,)``: the scan vertex of each coarse vertex; ``approx_deviation``
     (names in ``approx_deviation_names``): the inliers' deviation statistics, then ``rejected``,
-    ``all_rms``, ``all_max``; ``approx_loss``, ``approx_corners``, ``approx_tolerance`` (NaN:
+    ``all_rms``, ``all_max``, ``outline_gap``; ``approx_loss``, ``approx_corners``, ``approx_tolerance`` (NaN:
     none), ``approx_budget``, ``approx_scale`` (NaN: plain loss), ``approx_noise``, ``approx_met``,
     ``approx_stop``; ``free``, ``fit_weights`` as for an interpolating fit, and ``data_vertices``
     (the corners' scan vertices) when the corners interpolate them.
@@ -624,9 +631,9 @@ def surface_extras(dom: CoarseDomain, fit, V: np.ndarray, stats: dict, settings:
     from dataclasses import asdict
 
     dev = stats["deviation"]
-    names = list(DEVIATION_KEYS) + ["rejected", "all_rms", "all_max"]
+    names = list(DEVIATION_KEYS) + ["rejected", "all_rms", "all_max", "outline_gap"]
     values = [float(dev[k]) for k in DEVIATION_KEYS] + [float(stats["rejected"]), stats["deviation_all"]["rms"],
-                                                       stats["deviation_all"]["max"]]
+                                                       stats["deviation_all"]["max"], float(stats["outline_gap"])]
     nan = lambda v: float("nan") if v is None else float(v)  # noqa: E731
     extras = dict(
         approx_scan_vertices=np.asarray(dom.vertices, np.int64), approx_deviation_names=np.array(names, dtype=str),

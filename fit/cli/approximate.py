@@ -129,7 +129,7 @@ def _summary(args: argparse.Namespace, result: Any, mesh: Any, seconds: float) -
         param_used=result.parameterization.repaired or result.parameterization.method,
         corners=result.settings["corners"], loss=result.settings["loss"], tolerance=st["tolerance"],
         budget=st["budget"], met=st["met"], stop=st["stop"], deviation=st["deviation"],
-        deviation_all=st["deviation_all"], rejected=st["rejected"], noise=st["noise"],
+        deviation_all=st["deviation_all"], outline_gap=st["outline_gap"], rejected=st["rejected"], noise=st["noise"],
         noise_correlation=st["noise_correlation"], rounds=result.history,
         weights=dataclasses.asdict(result.weights), data_weight=st["data_weight"],
         cross_validated=st["cross_validated"], energies=result.energies, iterations=int(result.iterations),
@@ -148,7 +148,8 @@ def _text(d: dict) -> str:
         f"{d['patches']} quintic patches (param {d['param']}"
         + (f" -> {d['param_used']}" if d["param_used"] != d["param"] else "")
         + f", corners {d['corners']}, loss {d['loss']})",
-        f"  deviation of the inliers: max {fmt(dev['max'])}, RMS {fmt(dev['rms'])} ({tol}); "
+        f"  deviation of the inliers: max {fmt(dev['max'])}, RMS {fmt(dev['rms'])}, outline gap max "
+        f"{fmt(d['outline_gap'])} ({tol}); "
         f"{d['rejected']} points rejected as outliers; {len(d['rounds'])} rounds ({d['stop']})",
         f"  energies: {e}",
         f"  C1 residual {fmt(d['c1_residual'])} (relative), {d['seconds']:.1f} s",
@@ -175,7 +176,8 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
                 f"{st['noise']:.3g}: it can only be met by following the noise")
     if st["tolerance"] is not None and not st["met"]:
         what = (f"the tolerance {st['tolerance']:.3g} was not met within {st['budget']} vertices: the inliers' "
-                f"max deviation is {st['deviation']['max']:.3g} ({st['stop']})")
+                f"max deviation is {st['deviation']['max']:.3g}, the outline's largest gap {st['outline_gap']:.3g} "
+                f"({st['stop']})")
         if args.strict:
             ui.result(data, _text)
             print(f"{PROG}: error: {what}; nothing written (--strict)", file=sys.stderr)
