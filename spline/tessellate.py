@@ -47,7 +47,8 @@ class Tessellation(NamedTuple):
     """A triangle mesh sampled from a spline surface.
 
     vertices : (m, d) surface points
-    triangles : (t, 3) int32 (int64 beyond 2^31 vertices), counter-clockwise in uv
+    triangles : (t, 3) int32 (int64 beyond 2^31 vertices), counter-clockwise in uv; patch ``f``'s are
+        rows ``f r^2`` to ``(f + 1) r^2`` (``r`` the resolution)
     normals : (m, 3) unit normals (zero where the surface is singular); only for d == 3
     uv : (m, 2) domain point of each vertex
     """

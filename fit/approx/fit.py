@@ -21,6 +21,7 @@ there, each step a solve with that same factor (:data:`GN_MODE`) and a backtrack
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -92,6 +93,9 @@ class CoarseFit:
     converged : bool
     n_unknowns : free points solved for
     unreached : (n,) bool, the scan points left out of the data term (:func:`scan_location`)
+    factor : the SparseCholesky of its normal matrix (another fit over the same domain reuses its analysis)
+    system : its PlainSystem, whose bend half another fit over the same domain, with the same ``weights``
+        (bend, data, corner mode) and reference, reuses
     """
 
     surface: SplineSurface
@@ -102,6 +106,9 @@ class CoarseFit:
     converged: bool
     n_unknowns: int
     unreached: np.ndarray | None = None
+    factor: SparseCholesky | None = None
+    system: Any = None
+    weights: tuple = ()
 
 
 def scan_location(dom: CoarseDomain) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -277,7 +284,8 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
                scale: float | np.ndarray | None = None, corners: str = "data",
                located: tuple[np.ndarray, np.ndarray] | None = None, unreached: np.ndarray | None = None,
                point_weight: np.ndarray | None = None, gauss_newton: bool = True, reference: Polynomial | None = None,
-               solver: optx.AbstractLeastSquaresSolver | None = None, max_steps: int = 50) -> CoarseFit:
+               solver: optx.AbstractLeastSquaresSolver | None = None, max_steps: int = 50,
+               like: CoarseFit | None = None) -> CoarseFit:
     """Fit the spline over ``dom`` to every scan vertex ``V (n, 3)``.
 
     Parameters
@@ -296,6 +304,9 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
     reference : the bend term's reference surface over uv (default :func:`quadric_reference`)
     solver : an optimistix least-squares solver for the robust loss (default :class:`DescentGaussNewton`
         with the start's factor, :data:`GN_MODE`); max_steps : its step cap
+    like : an earlier fit over the same domain and reference (a reweighted or corrected refit): its
+        spline space, its factor's analysis (PARDISO's numerical phase alone, where the normal matrix
+        has its pattern) and, with the same bend and data weights and corner mode, its bend half
     """
     if corners not in CORNER_MODES:
         raise ValueError(f"corners must be one of {', '.join(CORNER_MODES)}, got {corners!r}")
@@ -303,17 +314,23 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
         raise ValueError(f"the {loss} loss needs its scale (data units)")
     face, bary, unreached = _location(dom, located, unreached)
     centre, size = _normalisation(V)
-    space = build_space(dom.triangulation)
+    space = like.space if like is not None else build_space(dom.triangulation)
     keep = np.flatnonzero(~unreached) if unreached.any() else slice(None)  # unreached: no data weight
     sc = size if scale is None else np.asarray(scale)
     points = robust_points(face[keep], bary[keep], (V[keep] - centre) / size, loss,
                            (sc if np.ndim(sc) == 0 else sc[keep]) / size)
     point_weight = None if point_weight is None else np.asarray(point_weight)[keep]
     corner_xyz = (V[dom.vertices] - centre) / size if corners == "data" else None
-    ref_net = _reference_net(dom, V, reference, centre, size)
-    bw = bend_face_weights(dom) * np.where(outline_faces(dom), outline_factor(weights.data, dom.warped), 1.0)
-    prob = setup_problem(space, points, corner_xyz, weights, loss, ref_net, point_weight, bw)
-    factor = SparseCholesky(prob.H)
+    bend_of = like.system if like is not None and like.weights == (weights.bend, weights.data, corners) else None
+    if bend_of is None:
+        ref_net = _reference_net(dom, V, reference, centre, size)
+        bw = bend_face_weights(dom) * np.where(outline_faces(dom), outline_factor(weights.data, dom.warped), 1.0)
+    else:  # the same domain, weights and reference: the bend half as it was
+        ref_net, bw = bend_of.terms["reference"], None
+    prob = setup_problem(space, points, corner_xyz, weights, loss, ref_net, point_weight, bw, bend_of)
+    factor = like.factor if like is not None and like.factor is not None else None
+    if factor is None or not factor.refactor(sp.triu(prob.H, format="csr")):
+        factor = SparseCholesky(prob.H)
     x, steps, ok = _solve(prob, factor, solver, max_steps, gauss_newton)
     free = np.zeros((space.n_free, 3))
     if corner_xyz is not None:
@@ -324,7 +341,8 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
     energies = prob.energies((ctrl - centre) / size, size)
     surface = SplineSurface(space.tri.uv, dom.faces, ctrl)  # the domain used: nearly singular vertices snapped
     return CoarseFit(surface=surface, free=free, space=space, energies=energies, iterations=steps, converged=ok,
-                     n_unknowns=k, unreached=unreached)
+                     n_unknowns=k, unreached=unreached, factor=factor, system=prob.plain,
+                     weights=(weights.bend, weights.data, corners))
 
 
 def _location(dom: CoarseDomain, located: tuple[np.ndarray, np.ndarray] | None, unreached: np.ndarray | None

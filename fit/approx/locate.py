@@ -73,8 +73,18 @@ class ClampedLocator:
         ends = self.tri.edges[self.boundary_edges]  # (nb, 2)
         self._a = gather.rows(self.tri.uv, ends[:, 0])
         self._b = gather.rows(self.tri.uv, ends[:, 1])
-        self._half = 0.5 * np.linalg.norm(self._b - self._a, axis=1).max()
         self._tree = cKDTree(0.5 * (self._a + self._b))
+        # points along the boundary edges, at most a median edge apart: the nearest edge is among those
+        # of the nearest points unless a point is within half that spacing of a farther one (with the
+        # midpoints alone the longest edge set that margin: most interior points of a refined domain,
+        # whose outline keeps a few long chords, were checked against every edge)
+        length = np.linalg.norm(self._b - self._a, axis=1)
+        pieces = np.maximum(np.ceil(length / max(float(np.median(length)), 1e-300)), 1).astype(np.int64)
+        self._piece_edge = np.repeat(np.arange(length.size), pieces)
+        j = np.arange(self._piece_edge.size) - np.repeat(np.cumsum(pieces) - pieces, pieces)
+        frac = ((j + 0.5) / pieces[self._piece_edge])[:, None]
+        self._pieces = cKDTree(self._a[self._piece_edge] + frac * (self._b - self._a)[self._piece_edge])
+        self._half = 0.5 * float((length / pieces).max())
         ef = self.tri.edge_faces[self.boundary_edges]
         self._face = np.where(ef[:, 0] >= 0, ef[:, 0], ef[:, 1])
         # the two boundary edges at each boundary vertex (a manifold boundary has exactly two)
@@ -88,21 +98,22 @@ class ClampedLocator:
 
         Returns ``edge (n,)`` (Triangulation edge ids), ``t (n,)`` in ``[0, 1]`` from
         ``edges[edge, 0]`` to ``edges[edge, 1]`` and the foot ``(n, 2)``. The edges with the
-        :data:`NEAREST_EDGES` nearest midpoints are tried first; a point for which they do not
-        prove the answer (a farther edge could still be nearer) is checked against every edge.
+        :data:`NEAREST_EDGES` nearest of points spaced along the edges (at most a median edge length apart)
+        are tried first; a point for which they do not prove the answer (a farther edge could still be
+        nearer) is checked against every edge.
         """
         p = as_array(points, "points", (None, 2), finite=True)
-        nb = self._a.shape[0]
-        k = min(NEAREST_EDGES, nb)
-        dmid, cand = self._tree.query(p, k=k)
-        cand, dmid = cand.reshape(p.shape[0], k), dmid.reshape(p.shape[0], k)
+        ns = self._piece_edge.size
+        k = min(NEAREST_EDGES, ns)
+        dmid, near = self._pieces.query(p, k=k)
+        cand, dmid = self._piece_edge[near.reshape(p.shape[0], k)], dmid.reshape(p.shape[0], k)
         t, foot = segment_foot(p[:, None, :], self._a[cand], self._b[cand])
         d = np.linalg.norm(foot - p[:, None, :], axis=2)
         j = d.argmin(1)
         rows = np.arange(p.shape[0])
         best, t, foot, cand = d[rows, j], t[rows, j], foot[rows, j], cand[rows, j]
-        # an edge not tried has its midpoint beyond the k-th: nearer only if that is within best + half
-        open_ = np.flatnonzero((k < nb) & (dmid[:, -1] <= best + self._half))
+        # an edge not tried has all its points beyond the k-th nearest: nearer only if that is within best + half
+        open_ = np.flatnonzero((k < ns) & (dmid[:, -1] <= best + self._half))
         for s in range(0, open_.size, 1024):
             q = open_[s : s + 1024]
             tq, fq = segment_foot(p[q, None, :], self._a[None], self._b[None])

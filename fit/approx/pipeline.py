@@ -437,11 +437,11 @@ def _round_fit(V: np.ndarray, dom: CoarseDomain, opt: _Options, scale: np.ndarra
     kept down-weighted once refinement has given it the vertices to follow it.
     """
     located, unreached = _located(dom, None)
-    pw = None
+    pw, fit = None, None
     for _ in range(1 + (IRLS_STEPS if scale is not None else 0)):
         fit = fit_domain(dom, V, weights=opt.weights, loss=opt.loss, scale=scale, corners=opt.corners,
                          located=located, unreached=unreached, point_weight=pw, reference=opt.reference,
-                         gauss_newton=False)
+                         gauss_newton=False, like=fit)
         if scale is not None:
             pw = _irls_weights(fit, located, V, scale, opt.loss)
     return fit, located
@@ -558,7 +558,7 @@ def _final(V: np.ndarray, F: np.ndarray, best: Round, opt: _Options, scale: np.n
         pw = None if scale is None else _irls_weights(state.fit, located, V, scale, opt.loss)
         fit = fit_domain(best.dom, V, weights=weights, loss=opt.loss, scale=scale, corners=opt.corners,
                          located=located, unreached=unreached, point_weight=pw, reference=opt.reference,
-                         gauss_newton=scale is not None)
+                         gauss_newton=scale is not None, like=state.fit)
         state = measure(best.dom, V, fit, located, scale is not None, seconds=time.perf_counter() - t0,
                         outline=True, scan_faces=None if opt.refine else F)
         state = dataclasses.replace(state, corrections=k + (not opt.refine))

@@ -22,8 +22,10 @@ after refinement usually reuses the compiled Gauss--Newton loop of an earlier ro
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 from dataclasses import dataclass
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -70,6 +72,7 @@ class ApproxProblem:
     unknowns : (k,) free ids of the unknowns (the first ``k`` of ``kp``)
     loss : the data loss (``"l2"``, ``"huber"``, ``"cauchy"``)
     terms : the terms' host arrays, unpadded (``bend``, ``data``, ``reference (f, 21, 3)``), for :meth:`energies`
+    plain : the :class:`PlainSystem` it was made of (None: not kept)
     """
 
     host_args: dict
@@ -78,6 +81,7 @@ class ApproxProblem:
     unknowns: np.ndarray
     loss: str
     terms: dict
+    plain: Any = None
 
     @functools.cached_property
     def args(self) -> dict:
@@ -120,6 +124,7 @@ class PlainSystem:
     M_u : (n_points, k) the unknowns' columns of ``M``; c0 : (n_points, 3) the fixed corners' part
     unknowns : (k,) free ids; terms : the terms' host arrays (``bend``, ``data``, ``reference``)
     H_bend, H_data : (k, k) sparse; rhs_bend, rhs_data : (k, 3)
+    patch_rows : ``(A, c)``, the patches' control points ``A @ x + c`` (``(f 21, k)`` sparse, ``(f 21, 3)``)
     """
 
     M_u: sp.csr_matrix
@@ -130,12 +135,32 @@ class PlainSystem:
     rhs_bend: np.ndarray
     H_data: sp.csr_array
     rhs_data: np.ndarray
+    patch_rows: tuple = ()
 
 
 def plain_system(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray | None, weights: FitWeights,
                  loss: str, reference: np.ndarray, point_weight: np.ndarray | None = None,
-                 bend_weight: np.ndarray | None = None) -> PlainSystem:
-    """The split normal equations of :func:`setup_problem` (same parameters)."""
+                 bend_weight: np.ndarray | None = None, bend_of: PlainSystem | None = None) -> PlainSystem:
+    """The split normal equations of :func:`setup_problem` (same parameters). ``bend_of``: an earlier
+    system of the same space, corner mode, bend weights and reference, whose bend half is taken as it is
+    (a reweighted or corrected refit changes only the data half)."""
+    if bend_of is None:
+        bend_of = _bend_half(space, weights, corner_xyz, reference, bend_weight)
+    ctx = _context(space, weights, points, points.face.size)
+    terms = dict(bend_of.terms, data=DATA_LOSSES[loss].setup(ctx))
+    plain = dict(terms["data"])
+    if point_weight is not None:
+        plain["scale"] = plain["scale"] * np.sqrt(point_weight)
+    parts = en.NormalParts.zeros(space.tri.n_faces, 0)
+    DATA_LOSSES["l2"].add_normal(parts, plain)  # a robust term's linearisation at zero, reweighted
+    A, c = bend_of.patch_rows
+    H_data, rhs_data = en.normal_equations(A, c, np.zeros(0, np.int64), parts)
+    return dataclasses.replace(bend_of, terms=terms, H_data=H_data, rhs_data=rhs_data)
+
+
+def _bend_half(space: SplineSpace, weights: FitWeights, corner_xyz: np.ndarray | None, reference: np.ndarray,
+               bend_weight: np.ndarray | None) -> PlainSystem:
+    """A :class:`PlainSystem` with the bend term's half (the data half empty)."""
     if corner_xyz is None:
         unknowns = np.arange(space.n_free)
     else:
@@ -145,8 +170,7 @@ def plain_system(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray 
     M = sp.csc_matrix(space.M)
     M_u = sp.csr_matrix(M[:, unknowns])
     c0 = np.zeros((space.n_points, 3)) if corner_xyz is None else np.asarray(M[:, space.corner_free] @ corner_xyz)
-    ctx = _context(space, weights, points, points.face.size)
-    terms = {"bend": bend.setup(ctx), "data": DATA_LOSSES[loss].setup(ctx), "reference": reference}
+    terms = {"bend": bend.setup(_context(space, weights, None, 0)), "reference": reference}
     if bend_weight is not None:  # per patch: W carries sqrt(weight area)
         terms["bend"]["W"] = terms["bend"]["W"] * np.sqrt(np.asarray(bend_weight, float))[:, None, None]
     A = M_u[np.asarray(space.point_index).ravel()]
@@ -155,19 +179,13 @@ def plain_system(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray 
     bend.add_normal(parts, terms["bend"])
     parts.patch_rhs += np.einsum("fij,fjc->fic", parts.blocks, reference)  # |D^2 (P - reference)|^2
     H_bend, rhs_bend = en.normal_equations(A, c, np.zeros(0, np.int64), parts)
-    plain = dict(terms["data"])
-    if point_weight is not None:
-        plain["scale"] = plain["scale"] * np.sqrt(point_weight)
-    parts = en.NormalParts.zeros(space.tri.n_faces, 0)
-    DATA_LOSSES["l2"].add_normal(parts, plain)  # a robust term's linearisation at zero, reweighted
-    H_data, rhs_data = en.normal_equations(A, c, np.zeros(0, np.int64), parts)
     return PlainSystem(M_u=M_u, c0=c0, unknowns=unknowns, terms=terms, H_bend=H_bend, rhs_bend=rhs_bend,
-                       H_data=H_data, rhs_data=rhs_data)
+                       H_data=sp.csr_array(H_bend.shape), rhs_data=np.zeros_like(rhs_bend), patch_rows=(A, c))
 
 
 def setup_problem(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray | None, weights: FitWeights,
                   loss: str, reference: np.ndarray, point_weight: np.ndarray | None = None,
-                  bend_weight: np.ndarray | None = None) -> ApproxProblem:
+                  bend_weight: np.ndarray | None = None, bend_of: PlainSystem | None = None) -> ApproxProblem:
     """The problem for scan ``points`` located in ``space``'s domain (normalised coordinates).
 
     Parameters
@@ -182,10 +200,12 @@ def setup_problem(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray
         least squares: the robust loss's weights at an earlier fit); the residuals keep the loss
     bend_weight : (f,) a factor of the thin-plate energy per patch (:func:`~.fit.bend_face_weights`:
         the map's area distortion taken out), or None (1)
+    bend_of : see :func:`plain_system`; the problem's :attr:`~ApproxProblem.plain` is the system made
     """
-    s = plain_system(space, points, corner_xyz, weights, loss, reference, point_weight, bend_weight)
+    s = plain_system(space, points, corner_xyz, weights, loss, reference, point_weight, bend_weight, bend_of)
     H = sp.csr_array(s.H_bend + s.H_data)
-    return _padded_problem(s.M_u, s.c0, space.point_index, s.terms, H, s.rhs_bend + s.rhs_data, s.unknowns, loss)
+    prob = _padded_problem(s.M_u, s.c0, space.point_index, s.terms, H, s.rhs_bend + s.rhs_data, s.unknowns, loss)
+    return dataclasses.replace(prob, plain=s)
 
 
 def _padded_problem(M_u: sp.csr_matrix, c0: np.ndarray, point_index: np.ndarray, terms: dict, H: sp.csr_array,

@@ -30,7 +30,7 @@ from .deviation import Deviation, distance_to_mesh, summary, surface_deviation
 from .domain import MIN_SEPARATION, CoarseDomain, coarse_index, separation
 from .fit import CoarseFit
 
-__all__ = ["Round", "measure", "outline_gaps", "surface_gaps", "pick_vertices", "REJECT_SIGMAS", "GROWTH",
+__all__ = ["Round", "measure", "outline_gaps", "surface_gaps", "faceting", "pick_vertices", "REJECT_SIGMAS", "GROWTH",
            "GAP_RESOLUTION"]
 
 #: A spike farther than this many noise standard deviations from the fit is rejected (robust losses only).
@@ -51,6 +51,10 @@ GROWTH = 2.0
 INTERIOR_BARY = 0.2
 #: Roughness (in local noise levels) that halves a candidate's preference.
 ROUGHNESS_SCALE = 1.5
+#: The scan faces' distance from a smooth surface, in curvature times squared spacing (:func:`faceting`): a
+#: circle's chord of length ``h`` stands ``k h^2 / 8`` from it, a triangle's centre about ``k h^2 / 6``;
+#: ``curvature`` is ``sqrt(k1^2 + k2^2)``, the larger of the two at most.
+FACETING = 0.25
 #: Tessellation steps per patch edge of :func:`surface_gaps`'s surface samples.
 GAP_RESOLUTION = 4
 
@@ -155,11 +159,21 @@ def outline_gaps(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit) -> np.ndarray
 
 def surface_gaps(dom: CoarseDomain, V: np.ndarray, F: np.ndarray, fit: CoarseFit) -> np.ndarray:
     """``(f,)`` each coarse face's largest distance from the samples of its patch (the tessellation at
-    :data:`GAP_RESOLUTION`) to the scan ``V (n, 3)``, ``F (m, 3)`` (exact closest points on its triangles)."""
+    :data:`GAP_RESOLUTION`, its edges' samples included) to the scan ``V (n, 3)``, ``F (m, 3)`` (exact
+    closest points on its triangles), less the scan's own :func:`faceting` there."""
     mesh = fit.surface.tessellate(GAP_RESOLUTION)
-    gap = np.zeros(dom.stats.n_faces)
-    np.maximum.at(gap, dom.locate(mesh.uv).face, distance_to_mesh(mesh.vertices, V, F))
-    return gap
+    d = np.maximum(distance_to_mesh(mesh.vertices, V, F) - faceting(dom, mesh.uv), 0.0)
+    return d[mesh.triangles].reshape(dom.stats.n_faces, -1).max(1)  # a patch's triangles are its r^2 rows
+
+
+def faceting(dom: CoarseDomain, uv: np.ndarray) -> np.ndarray:
+    """``(k,)`` how far the scan's flat faces may stand from the smooth surface they sample at uv ``points``:
+    :data:`FACETING` times the local curvature times the squared 3D spacing of the scan (the scan
+    analysis's cells). A surface nearer the truth than the scan's faces is that far from them; without
+    it the surface-to-scan gap of a fine, smooth scan was its faceting, and refinement chased it."""
+    a = dom.analysis
+    h = a.lookup(a.scan_spacing, uv) * a.lookup(a.scale, uv)
+    return FACETING * a.lookup(a.curvature, uv) * h * h
 
 
 def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray | None = None) -> np.ndarray:

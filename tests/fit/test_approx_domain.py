@@ -172,8 +172,19 @@ def test_locate_scan_clamps_points_outside_to_the_boundary():
     np.testing.assert_allclose(np.linalg.norm(foot - p, axis=1), brute, rtol=1e-9, atol=1e-15)
 
 
-def test_clamped_locator_projects_exactly():
-    uv, F = domains.random_delaunay(400, holes=2, seed=7)
+def _arc_and_chord() -> tuple[np.ndarray, np.ndarray]:
+    """A disc's 300-degree arc of 200 short edges closed by one long chord (a refined domain's outline)."""
+    import triangle as tr
+
+    th = np.linspace(0.0, np.radians(300.0), 200)
+    P = np.column_stack([np.cos(th), np.sin(th)])
+    t = tr.triangulate(dict(vertices=P, segments=np.column_stack([np.arange(200), (np.arange(200) + 1) % 200])), "pq30Q")
+    return t["vertices"], t["triangles"]
+
+
+@pytest.mark.parametrize("domain", ["holes", "arc_and_chord"])
+def test_clamped_locator_projects_exactly(domain):
+    uv, F = domains.random_delaunay(400, holes=2, seed=7) if domain == "holes" else _arc_and_chord()
     loc = ClampedLocator(uv, F)
     p = np.random.default_rng(0).uniform(-0.5, 1.5, (3000, 2))
     edge, t, foot = loc.project(p)

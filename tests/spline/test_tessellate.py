@@ -6,6 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from trispline.spline.locate import Locator
 from trispline.spline.testing import domains
 from trispline.spline.errors import InputError
 from trispline.spline.locate import locate
@@ -53,6 +54,11 @@ def test_tessellation_is_watertight_and_exact(name, seed, r):
     area = 0.5 * ((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
     assert (area > 0).all()
     np.testing.assert_allclose(area.sum(), tri.areas.sum(), rtol=1e-12)
+    # patch f's triangles are rows f r^2 .. (f + 1) r^2, inside its face
+    own = np.repeat(np.arange(nf), r * r)
+    centroid = (a + b + c) / 3.0
+    bary = Locator(uv, faces).bary_in(own, centroid)
+    assert bary.min() > -1e-12
     # points and normals exact for a polynomial surface
     np.testing.assert_allclose(mesh.vertices, func(mesh.uv), atol=1e-11)
     gu, gv = func.gradient(mesh.uv)
