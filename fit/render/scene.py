@@ -242,8 +242,9 @@ def _deviation_mesh(surface: "SplineSurface", mesh: Any) -> tuple[np.ndarray, np
     """The data mesh to measure against: ``mesh``, else the one stored with the fit."""
     data = as_mesh(mesh) if mesh is not None else stored_data_mesh(surface)
     if data is None:
-        raise RenderError("deviation needs a data mesh (--mesh DATA_MESH, or mesh=(V, F)); this surface "
-                          "file stores no data vertices")
+        why = ("it approximates a scan: give that scan" if "approx_scan_vertices" in surface.extras
+               else "this surface file stores no data vertices")
+        raise RenderError(f"deviation needs a data mesh (--mesh DATA_MESH, or mesh=(V, F)); {why}")
     return data
 
 
