@@ -27,7 +27,7 @@ from .common import EXIT_CHECK, EXIT_OK, PROG, UI, Interrupts, fmt, positive_flo
 __all__ = ["add_options", "requested", "run", "NOISE_SIGMAS"]
 
 #: The options that only make sense with an approximation.
-_MODE_OPTIONS = ("corners", "loss", "strict")
+_MODE_OPTIONS = ("corners", "loss", "strict", "outline_tolerance")
 #: FitWeights fields the approximation uses.
 _USED_WEIGHTS = ("bend", "data")
 
@@ -49,6 +49,10 @@ def add_options(p: argparse.ArgumentParser) -> None:
                         "(better on noisy scans)")
     g.add_argument("--loss", choices=("huber", "cauchy", "l2"), default=None,
                    help="data loss: huber (default), cauchy (ignores far outliers) or l2 (plain least squares)")
+    g.add_argument("--outline-tolerance", action="store_true", default=None,
+                   help="the tolerance holds for the outline too: where a coarse chord spans a notch or a bay of "
+                        "the scan's outline (no data under the surface there), refine until the surface's boundary "
+                        "is within it (more vertices along ragged outlines; default: reported, with a warning)")
     g.add_argument("--strict", action="store_true", default=None,
                    help="exit 3 (and write nothing) when the tolerance is not met within the budget")
 
@@ -57,7 +61,7 @@ def requested(args: argparse.Namespace) -> bool:
     """True when ``fit`` should approximate (a tolerance or a vertex budget was given)."""
     on = any(getattr(args, k, None) is not None for k in ("tolerance", "tolerance_rel", "vertices"))
     if not on:
-        given = [f"--{k}" for k in _MODE_OPTIONS if getattr(args, k, None) is not None]
+        given = [f"--{k.replace('_', '-')}" for k in _MODE_OPTIONS if getattr(args, k, None) is not None]
         if given:
             raise UsageError(f"{', '.join(given)} need --tolerance, --tolerance-rel or --vertices (approximation)")
     return on
@@ -114,7 +118,7 @@ def _approximate(args: argparse.Namespace, ui: UI, mesh: Any, weights: Any) -> t
         result = approximate_surface(mesh.V, mesh.F, tolerance=args.tolerance, tolerance_rel=args.tolerance_rel,
                                      n_vertices=args.vertices, corners=args.corners or "data",
                                      loss=args.loss or "huber", weights=weights, uv=mesh.uv, param=args.param,
-                                     progress=bar)
+                                     progress=bar, outline_tolerance=bool(args.outline_tolerance))
         return result, time.perf_counter() - t0
     finally:
         bar.close()
@@ -174,10 +178,15 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
             and st["noise_correlation"] <= NOISE_CORRELATION_MAX):  # else the "noise" is the quadrics' model error
         ui.warn(f"the tolerance {st['tolerance']:.3g} is below {NOISE_SIGMAS} times the scan's noise estimate "
                 f"{st['noise']:.3g}: it can only be met by following the noise")
+    if st["tolerance"] is not None and st["outline_gap"] > st["tolerance"] and not args.outline_tolerance:
+        ui.warn(f"the surface's boundary stands up to {st['outline_gap']:.3g} from the scan's outline, beyond the "
+                f"tolerance (a chord spans a notch or a hole's bay, where the scan has no data; the tolerance "
+                f"holds for the scan's vertices): --outline-tolerance refines there too")
     if st["tolerance"] is not None and not st["met"]:
         what = (f"the tolerance {st['tolerance']:.3g} was not met within {st['budget']} vertices: the inliers' "
-                f"max deviation is {st['deviation']['max']:.3g}, the outline's largest gap {st['outline_gap']:.3g} "
-                f"({st['stop']})")
+                f"max deviation is {st['deviation']['max']:.3g}"
+                + (f", the outline's largest gap {st['outline_gap']:.3g}" if args.outline_tolerance else "")
+                + f" ({st['stop']})")
         if args.strict:
             ui.result(data, _text)
             print(f"{PROG}: error: {what}; nothing written (--strict)", file=sys.stderr)
