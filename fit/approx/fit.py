@@ -304,9 +304,10 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
     reference : the bend term's reference surface over uv (default :func:`quadric_reference`)
     solver : an optimistix least-squares solver for the robust loss (default :class:`DescentGaussNewton`
         with the start's factor, :data:`GN_MODE`); max_steps : its step cap
-    like : an earlier fit over the same domain and reference (a reweighted or corrected refit): its
-        spline space, its factor's analysis (PARDISO's numerical phase alone, where the normal matrix
-        has its pattern) and, with the same bend and data weights and corner mode, its bend half
+    like : an earlier fit of the same scan over the same domain and reference (a reweighted or corrected
+        refit): its spline space, its factor's analysis (PARDISO's numerical phase alone, where the normal
+        matrix has its pattern: that factor is refactored in place) and, with the same bend and data
+        weights and corner mode, its bend half
     """
     if corners not in CORNER_MODES:
         raise ValueError(f"corners must be one of {', '.join(CORNER_MODES)}, got {corners!r}")
