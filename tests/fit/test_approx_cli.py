@@ -149,3 +149,23 @@ def test_no_noise_warning_on_a_clean_scan(tmp_path, capsys):
     d = json.loads(stdout)
     assert rc == 0 and d["tolerance"] < 4.5 * d["noise"]  # the old test would have warned
     assert d["noise_correlation"] > 0.1 and "noise estimate" not in err
+
+
+def test_the_outline_gap_is_warned_about_and_held_on_request(tmp_path, capsys):
+    """A disc with 40 notches: the surface's boundary spans them (reported, a warning); --outline-tolerance
+    refines until it holds there too (no warning, the JSON's outline_gap within the tolerance)."""
+    import triangle as tr
+
+    th = np.linspace(0, 2 * np.pi, 160, endpoint=False)
+    r = np.where((np.arange(160) // 2) % 2 == 0, 1.0, 0.9)
+    t = tr.triangulate(dict(vertices=np.column_stack([r * np.cos(th), r * np.sin(th)]),
+                            segments=np.column_stack([np.arange(160), (np.arange(160) + 1) % 160])), "pq30a0.001Q")
+    mesh = tmp_path / "gear.ply"
+    trimesh.Trimesh(np.column_stack([t["vertices"], 0.2 * t["vertices"].prod(1)]), t["triangles"],
+                    process=False).export(mesh)
+    for extra, warned in (((), True), (("--outline-tolerance",), False)):
+        rc, stdout, err = run(capsys, "fit", mesh, "-o", tmp_path / "s.npz", "--tolerance-rel", "1e-3", "--json",
+                              *extra)
+        d = json.loads(stdout)
+        assert rc == 0 and d["met"] and ("boundary stands up to" in err) is warned
+        assert (d["outline_gap"] > d["tolerance"]) is warned
