@@ -104,7 +104,6 @@ class ScanAnalysis:
         the mesh's edges (clipped at 3 ``noise``): about -0.1 where they are noise, which is independent
         vertex to vertex, 0.25-0.7 where they are the quadrics' model error, which varies smoothly
         (:func:`edge_correlation`)
-    leverage : (n,) each vertex's leverage ``h`` in its cell's fit (None: not known)
     """
 
     residual: np.ndarray
@@ -124,7 +123,6 @@ class ScanAnalysis:
     points: np.ndarray
     coarse_noise: float
     noise_correlation: float = 0.0
-    leverage: np.ndarray | None = None
 
     @property
     def noise_share(self) -> float:
@@ -301,8 +299,8 @@ def _level(stud: np.ndarray, grid: _Grid, diagonal: float) -> np.ndarray:
 
 def _robust_fit(grid: _Grid, V: np.ndarray, diagonal: float) -> tuple[np.ndarray, ...]:
     """The robust quadric fits of ``grid``'s cells to ``V (k, 3)``: per vertex ``(r, nrm, loo, stud,
-    level, w, lev)``, the signed residual, the quadric's normal ``(k, 3)``, the leave-one-out and the
-    studentized residual, the cell's level, the Cauchy weight of the last refit and the leverage."""
+    level, w)``, the signed residual, the quadric's normal ``(k, 3)``, the leave-one-out and the
+    studentized residual, the cell's level and the Cauchy weight of the last refit."""
     w = np.ones(V.shape[0])
     for _ in range(REFITS + 1):
         C, Ainv, ref = grid.fit(V, w)
@@ -312,7 +310,7 @@ def _robust_fit(grid: _Grid, V: np.ndarray, diagonal: float) -> tuple[np.ndarray
         stud = _studentized(r, lev)
         level = _level(stud, grid, diagonal)
         w = 1.0 / (1.0 + (loo / (CAUCHY_SCALE * level)) ** 2)
-    return r, nrm, loo, stud, level, w, lev
+    return r, nrm, loo, stud, level, w
 
 
 def _adaptive_fits(V: np.ndarray, uv: np.ndarray, step: float, diagonal: float) -> tuple[np.ndarray, ...]:
@@ -323,7 +321,7 @@ def _adaptive_fits(V: np.ndarray, uv: np.ndarray, step: float, diagonal: float) 
     times their count in cells; a vertex in a region too sparse for its cells (joined to a valid cell
     beyond :data:`FAR_JOIN`) on grids of twice the step until it is not."""
     n = V.shape[0]
-    out = [np.empty(n), np.empty((n, 3)), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)]
+    out = [np.empty(n), np.empty((n, 3)), np.empty(n), np.empty(n), np.empty(n), np.empty(n)]
     todo = np.arange(n)
     far = np.zeros(n, bool)
     for k in range(MAX_LEVELS + 1):
@@ -371,7 +369,7 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
     auv = np.abs(signed_areas(uv, F))
     unit = float(np.sqrt(max(float(auv.sum()), 1e-300) / n))  # uv spacing of the scan
     diagonal = float(np.linalg.norm(V.max(0) - V.min(0)))
-    r, nrm, loo, stud, level, w, lev = _adaptive_fits(V, uv, unit * np.sqrt(POINTS_PER_CELL), diagonal)
+    r, nrm, loo, stud, level, w = _adaptive_fits(V, uv, unit * np.sqrt(POINTS_PER_CELL), diagonal)
     noise = MAD_TO_SIGMA * float(np.median(stud))
     points = max(int(curvature_points), MIN_CELL_POINTS)
     for _ in range(2):  # a noisy scan needs larger cells: the noise's share falls like (points per cell)^-3
@@ -400,7 +398,7 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
                         step=coarse.step, shape=coarse.shape, curvature=kappa, scale=scale, scan_spacing=scan_spacing,
                         area=s3.reshape(coarse.shape), diagonal=diagonal, points=V,
                         coarse_noise=MAD_TO_SIGMA * float(np.median(studc)),
-                        noise_correlation=edge_correlation(np.clip(loo, -3 * noise, 3 * noise), F), leverage=lev)
+                        noise_correlation=edge_correlation(np.clip(loo, -3 * noise, 3 * noise), F))
 
 
 def edge_correlation(x: np.ndarray, F: np.ndarray) -> float:

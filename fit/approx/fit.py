@@ -21,7 +21,6 @@ there, each step a solve with that same factor (:data:`GN_MODE`) and a backtrack
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -42,7 +41,8 @@ from ..solve import FactorSolver, SparseCholesky
 from ..weights import FitWeights
 from .domain import CoarseDomain
 from ..energy.data import DataPoints
-from .problem import CORNER_MODES, ApproxProblem, plain_system, residual_function, robust_points, setup_problem
+from .problem import (CORNER_MODES, ApproxProblem, PlainSystem, plain_system, residual_function, robust_points,
+                      setup_problem)
 
 __all__ = ["CoarseFit", "fit_domain", "bend_face_weights", "BEND_WEIGHT_RANGE", "scan_parameters",
            "scan_location", "corrected_parameters", "corrected_location", "outline_faces", "outline_factor", "OUTLINE_DATA_WEIGHT",
@@ -107,7 +107,7 @@ class CoarseFit:
     n_unknowns: int
     unreached: np.ndarray | None = None
     factor: SparseCholesky | None = None
-    system: Any = None
+    system: PlainSystem | None = None
     weights: tuple = ()
 
 

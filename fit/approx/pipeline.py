@@ -49,8 +49,8 @@ from .fit import (APPROX_WEIGHTS, corrected_location, cross_validated_weight, fi
 from .problem import CORNER_MODES
 from .refine import Round, measure, outline_gaps, pick_vertices
 
-__all__ = ["ApproxResult", "approximate_surface", "APPROX_STAGES", "LOSS_NAMES", "DEFAULT_BUDGET_FRACTION", "DEFAULT_BUDGET_MIN",
-           "surface_extras"]
+__all__ = ["ApproxResult", "approximate_surface", "APPROX_STAGES", "LOSS_NAMES", "DEFAULT_BUDGET_FRACTION",
+           "DEFAULT_BUDGET_MIN", "surface_extras"]
 
 #: Every data loss: the plain one and the robust ones.
 LOSS_NAMES = ("l2",) + LOSSES

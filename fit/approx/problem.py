@@ -25,7 +25,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 from dataclasses import dataclass
-from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -81,7 +80,7 @@ class ApproxProblem:
     unknowns: np.ndarray
     loss: str
     terms: dict
-    plain: Any = None
+    plain: PlainSystem | None = None
 
     @functools.cached_property
     def args(self) -> dict:
@@ -135,7 +134,7 @@ class PlainSystem:
     rhs_bend: np.ndarray
     H_data: sp.csr_array
     rhs_data: np.ndarray
-    patch_rows: tuple = ()
+    patch_rows: tuple[sp.csr_matrix, np.ndarray]
 
 
 def plain_system(space: SplineSpace, points: DataPoints, corner_xyz: np.ndarray | None, weights: FitWeights,

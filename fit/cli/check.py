@@ -155,7 +155,8 @@ def _stored_fit(ex: dict, corners: np.ndarray) -> dict[str, Any]:
         value = read((key,), lambda v: float(np.asarray(v)))
         if value is not None:
             report[key] = value
-    error = read(("data_vertices",), lambda D: float(np.abs(corners - np.asarray(D, float).reshape(corners.shape)).max()))
+    error = read(("data_vertices",),
+                 lambda D: float(np.abs(corners - np.asarray(D, float).reshape(corners.shape)).max()))
     if error is not None:
         report["max_interpolation_error"] = error
     approximation = read(("approx_deviation_names", "approx_deviation"), lambda *_: _stored_approximation(ex))

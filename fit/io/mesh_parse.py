@@ -20,8 +20,11 @@ import numpy as np
 from trispline.param.errors import MeshError
 from trispline.spline.errors import first_few
 
-__all__ = ["ObjMesh", "fan_triangulate", "read_obj", "read_off", "check_ply_header", "check_stl_size", "read_trimesh"]
+__all__ = ["ObjMesh", "fan_triangulate", "read_obj", "read_off", "check_ply_header", "check_stl_size",
+           "read_trimesh"]
 
+#: Why a file's ``vt`` give no uv when no face names one.
+_NO_FACE_VT = "its faces name no texture coordinates (f a/t b/t c/t)"
 #: UTF-8's byte order mark, which some writers put first.
 _BOM = b"\xef\xbb\xbf"
 #: Bytes of the shortest OFF vertex line (``"0 0 0\n"``) and face line (``"3 0 1 2\n"``).
@@ -176,10 +179,7 @@ def _read_obj_lines(path: Path, data: bytes | None = None) -> ObjMesh:
               else io.StringIO(data.decode("utf-8-sig", errors="replace"), newline=None))
     with source as fh:
         for number, text in enumerate(fh, 1):
-            key, _, rest = text.split("#", 1)[0].strip().partition(" ")
-            if "\t" in key:
-                key, _, more = key.partition("\t")
-                rest = f"{more} {rest}"
+            key, rest = (text.split("#", 1)[0].split(None, 1) + ["", ""])[:2]  # any whitespace, any indent
             if key == "v":
                 verts.append(rest)
             elif key == "vt":
@@ -197,7 +197,7 @@ def _read_obj_lines(path: Path, data: bytes | None = None) -> ObjMesh:
     if not texs or not fv:
         return ObjMesh(V, F, None)
     if not any(ft):
-        return _with_uv(V, F, np.zeros((len(texs), 2)), None, path)
+        return ObjMesh(V, F, None, _NO_FACE_VT)
     if no_vt:
         return ObjMesh(V, F, None, f"face {no_vt} has no texture coordinates (f a/t b/t c/t)")
     return _with_uv(V, F, _coordinates(texs, 2, "texture coordinate", path), fan_triangulate(ft, path), path)
@@ -230,7 +230,7 @@ def _with_uv(V: np.ndarray, F: np.ndarray, T: np.ndarray | None, FT: np.ndarray 
     if T is None:
         return ObjMesh(V, F, None)
     if FT is None or not FT.size:
-        return ObjMesh(V, F, None, "its faces name no texture coordinates (f a/t b/t c/t)")
+        return ObjMesh(V, F, None, _NO_FACE_VT)
     if FT.min() < 0 or FT.max() >= T.shape[0]:
         bad = np.flatnonzero(((FT < 0) | (FT >= T.shape[0])).any(1))
         return ObjMesh(V, F, None, f"faces refer to texture coordinates outside 1..{T.shape[0]}: {first_few(bad)}")

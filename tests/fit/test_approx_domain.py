@@ -178,7 +178,8 @@ def _arc_and_chord() -> tuple[np.ndarray, np.ndarray]:
 
     th = np.linspace(0.0, np.radians(300.0), 200)
     P = np.column_stack([np.cos(th), np.sin(th)])
-    t = tr.triangulate(dict(vertices=P, segments=np.column_stack([np.arange(200), (np.arange(200) + 1) % 200])), "pq30Q")
+    loop = np.column_stack([np.arange(200), (np.arange(200) + 1) % 200])
+    t = tr.triangulate(dict(vertices=P, segments=loop), "pq30Q")
     return t["vertices"], t["triangles"]
 
 
