@@ -24,7 +24,7 @@ import numpy as np
 
 from .util import gather as _gather, memory as _memory, parallel as _parallel
 from .index import NCTRL
-from .bernstein import basis, basis_gradient_bary, de_casteljau_derivatives
+from .bernstein import basis, basis_gradient_bary, basis_of_degree, derivative_nets
 from .checks import as_array, check_ids
 from .errors import InputError
 from .topology import Triangulation, face_bary_gradients
@@ -128,19 +128,21 @@ def evaluate_derivatives(
     ctrl = check_ctrl(faces, ctrl)
     face_idx, bary = _check_queries(ctrl.shape[0], face_idx, bary)
     n, d = face_idx.shape[0], ctrl.shape[2]
+    faces = np.asarray(faces)
     out = [np.empty((n, d)) for _ in range(6 if second else 3)]
     for s in _chunks(n):
-        G = face_bary_gradients(uv, np.asarray(faces)[face_idx[s]])  # (m, 3, 2)
-        c = _gather.rows(ctrl, face_idx[s])  # (m, 21, d)
-        _, grad, hess = de_casteljau_derivatives(c, bary[s], second)
-        Gu, Gv = G[:, :, 0], G[:, :, 1]
-        out[0][s] = np.matmul(basis(bary[s])[:, None, :], c)[:, 0]  # as evaluate(): the same bits
-        out[1][s] = np.einsum("amd,ma->md", grad, Gu)
-        out[2][s] = np.einsum("amd,ma->md", grad, Gv)
-        if second:  # (3, 3, m, d)
-            out[3][s] = np.einsum("abmd,ma,mb->md", hess, Gu, Gu)
-            out[4][s] = np.einsum("abmd,ma,mb->md", hess, Gu, Gv)
-            out[5][s] = np.einsum("abmd,ma,mb->md", hess, Gv, Gv)
+        # the derivative nets of the chunk's patches, once each (many queries share a patch)
+        own, inv = np.unique(face_idx[s], return_inverse=True)
+        c = _gather.rows(ctrl, own)  # (k, 21, d)
+        nets = derivative_nets(c, face_bary_gradients(uv, faces[own]), second)
+        out[0][s] = np.matmul(basis(bary[s])[:, None, :], _gather.rows(c, inv))[:, 0]  # as evaluate(): the same bits
+        field = 1  # du, dv, then uu, uv, vv
+        for net, lower in zip(nets, (4, 3), strict=False):  # (k, r, m, d) of degree 4, then 3
+            B = basis_of_degree(bary[s], lower)[:, None, None, :]  # (q, 1, 1, m)
+            vals = np.matmul(B, _gather.rows(net, inv))[:, :, 0]  # (q, r, d)
+            for j in range(vals.shape[1]):
+                out[field][s] = vals[:, j]
+                field += 1
     return PatchDerivatives(*out)
 
 

@@ -35,7 +35,7 @@ from .patches import check_ctrl
 from .topology import Triangulation
 from .util import gather as _gather, memory as _memory, parallel as _parallel
 
-__all__ = ["Tessellation", "tessellate", "tessellation_counts", "require_tessellation_memory"]
+__all__ = ["Tessellation", "patch_points", "require_tessellation_memory", "tessellate", "tessellation_counts"]
 
 #: Meshes with fewer faces are tessellated on the calling thread only.
 PARALLEL_FACES = 8192
@@ -234,6 +234,19 @@ def tessellate(
         for job in jobs:
             job.result()
     return mesh
+
+
+def patch_points(resolution: int, triangle: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The patch ``(n,)`` and its barycentric coordinates ``(n, 3)`` of points on a tessellation's triangles.
+
+    ``triangle (n,)`` rows of :attr:`Tessellation.triangles` at ``resolution``, ``weights (n, 3)`` the points'
+    barycentric coordinates in them (vertex order of the rows): exact, no search in the domain.
+    """
+    r = int(resolution)
+    t = np.asarray(triangle, np.int64)
+    face, local = np.divmod(t, r * r)
+    corners = bary_grid(r)[lattice_triangles(r)[local]]  # (n, 3 vertices, 3)
+    return face, np.einsum("nk,nkc->nc", np.asarray(weights, np.float64), corners)
 
 
 def _triangles(tri: Triangulation, r: int, lay: _Layout, owners: _Owners, triangles: np.ndarray,

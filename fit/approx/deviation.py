@@ -24,6 +24,7 @@ import numpy as np
 
 from trispline.spline.checks import as_array
 from trispline.spline.patches import PatchDerivatives
+from trispline.spline.tessellate import patch_points
 from trispline.spline.util import gather
 
 from .locate import ClampedLocator
@@ -236,12 +237,11 @@ def surface_deviation(surface: "SplineSurface", points: np.ndarray, *, resolutio
     _, tri, C = closest_points(P, mesh.vertices, mesh.triangles)
     T = gather.rows(mesh.triangles, tri)  # (n, 3) tessellation vertex ids
     w = np.clip(triangle_bary(C, gather.rows(mesh.vertices, T)), 0.0, 1.0)
-    start = np.einsum("nk,nkd->nd", w / w.sum(1, keepdims=True), gather.rows(mesh.uv, T))
+    start_face, start_bary = patch_points(resolution, tri, w / w.sum(1, keepdims=True))
     ref = _Refiner(surface, loc, int(steps))
     for lo in range(0, n, chunk):
         s = slice(lo, min(lo + chunk, n))
-        hit = loc(start[s])
-        face[s], bary[s], closest[s] = ref.refine(P[s], hit.face, hit.bary)
+        face[s], bary[s], closest[s] = ref.refine(P[s], start_face[s], start_bary[s])
     # on the boundary curve: a barycentric coordinate ~0 opposite a boundary edge of the face
     tri = surface.triangulation
     on_b = ((bary <= BOUNDARY_BARY) & tri.boundary_edge_mask[tri.face_edges[face]]).any(1)

@@ -63,7 +63,8 @@ def requested(args: argparse.Namespace) -> bool:
     if not on:
         given = [f"--{k.replace('_', '-')}" for k in _MODE_OPTIONS if getattr(args, k, None) is not None]
         if given:
-            raise UsageError(f"{', '.join(given)} need --tolerance, --tolerance-rel or --vertices (approximation)")
+            verb = "needs" if len(given) == 1 else "need"
+            raise UsageError(f"{', '.join(given)} {verb} --tolerance, --tolerance-rel or --vertices (approximation)")
     return on
 
 
