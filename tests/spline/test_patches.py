@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 from trispline.spline.testing import domains
 from trispline.spline.errors import InputError
 from trispline.spline.patches import evaluate, evaluate_derivatives, evaluate_grid, numeric_continuity
-from trispline.spline.bernstein import PRODUCT_MONOMIALS, bary_grid, basis, gram_from_moments, product_monomials
+from trispline.spline.bernstein import (PRODUCT_MONOMIALS, bary_grid, basis, basis_gradient_bary, basis_hessian_bary,
+                                        basis_of_degree, gram_from_moments, product_monomials)
 from trispline.spline.polynomial import polynomial_control_net, random_polynomial
 from trispline.spline.topology import Triangulation, face_bary_gradients
 from triangulations import SMALL_DOMAINS
@@ -74,6 +75,41 @@ def test_derivatives_match_finite_differences_of_random_net():
     s2 = np.abs(r.uu).max() + np.abs(r.uv).max()
     np.testing.assert_allclose(r.uv, fd_uv, atol=1e-5 * s2)
     np.testing.assert_allclose(r.uu, fd_uu, atol=1e-5 * s2)
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 1000), per_patch=st.sampled_from([1, 3, 200]))
+def test_derivative_nets_equal_the_basis_derivatives_contracted(seed, per_patch):
+    """uv-derivatives from per-patch nets (degree 4 and 3) equal the quintic basis' barycentric
+    derivatives contracted with the control points and the face Jacobians, one patch per query or many."""
+    uv, faces = domains.random_delaunay(15, seed=seed % 7)
+    rng = np.random.default_rng(seed)
+    ctrl = rng.standard_normal((faces.shape[0], 21, 3))
+    fidx = np.repeat(rng.permutation(faces.shape[0]), per_patch)[: 20 * faces.shape[0]]
+    bary = rng.dirichlet(np.ones(3), fidx.size)
+    r = evaluate_derivatives(uv, faces, ctrl, fidx, bary, second=True)
+    G = face_bary_gradients(uv, faces)[fidx]  # (n, 3, 2)
+    c = ctrl[fidx]
+    grad = np.einsum("anm,nmd->and", basis_gradient_bary(bary), c)  # (3, n, d)
+    hess = np.einsum("abnm,nmd->abnd", basis_hessian_bary(bary), c)
+    scale = np.abs(grad).max() * np.abs(G).max()
+    np.testing.assert_allclose(r.du, np.einsum("and,na->nd", grad, G[:, :, 0]), atol=1e-13 * scale)
+    np.testing.assert_allclose(r.dv, np.einsum("and,na->nd", grad, G[:, :, 1]), atol=1e-13 * scale)
+    scale2 = np.abs(hess).max() * np.abs(G).max() ** 2
+    for got, i, j in [(r.uu, 0, 0), (r.uv, 0, 1), (r.vv, 1, 1)]:
+        ref = np.einsum("abnd,na,nb->nd", hess, G[:, :, i], G[:, :, j])
+        np.testing.assert_allclose(got, ref, atol=1e-13 * scale2)
+    np.testing.assert_array_equal(r.values, evaluate(uv, faces, ctrl, fidx, bary))  # the same bits
+
+
+@pytest.mark.parametrize("degree", [1, 2, 3, 4, 5])
+def test_bernstein_polynomials_of_each_degree_partition_unity(degree):
+    bary = np.random.default_rng(degree).dirichlet(np.ones(3), 500)
+    B = basis_of_degree(bary, degree)
+    assert B.shape == (500, (degree + 1) * (degree + 2) // 2) and B.min() >= 0.0
+    np.testing.assert_allclose(B.sum(1), 1.0, atol=1e-14)
+    if degree == 5:
+        np.testing.assert_array_equal(B, basis(bary))
 
 
 def test_partition_of_unity():

@@ -12,7 +12,7 @@ from trispline.spline.errors import InputError
 from trispline.spline.locate import locate
 from trispline.spline.patches import evaluate_derivatives
 from trispline.spline.polynomial import polynomial_control_net, random_polynomial
-from trispline.spline.tessellate import tessellate, tessellation_counts
+from trispline.spline.tessellate import patch_points, tessellate, tessellation_counts
 from trispline.spline.topology import Triangulation
 from triangulations import SMALL_DOMAINS
 
@@ -64,6 +64,27 @@ def test_tessellation_is_watertight_and_exact(name, seed, r):
     gu, gv = func.gradient(mesh.uv)
     np.testing.assert_allclose(mesh.normals, _unit(np.cross(gu, gv)), atol=1e-8)
     np.testing.assert_allclose(np.linalg.norm(mesh.normals, axis=1), 1.0, atol=1e-12)
+
+
+@settings(max_examples=15, deadline=None)
+@given(name=st.sampled_from(sorted(DOMAINS)), seed=st.integers(0, 200), r=st.integers(1, 7))
+def test_points_on_tessellation_triangles_name_their_patch_and_coordinates(name, seed, r):
+    """patch_points: a point on a tessellation triangle is that patch's point, without a search."""
+    uv, faces = DOMAINS[name](seed)
+    func = random_polynomial(5, 3, seed)
+    mesh = tessellate(uv, faces, polynomial_control_net(uv, faces, func), r)
+    rng = np.random.default_rng(seed)
+    tri = rng.integers(0, mesh.triangles.shape[0], 200)
+    w = rng.dirichlet(np.ones(3), 200)
+    w[:20] = np.eye(3)[rng.integers(0, 3, 20)]  # some at the triangles' vertices
+    face, bary = patch_points(r, tri, w)
+    np.testing.assert_array_equal(face, tri // (r * r))
+    assert bary.min() >= 0.0 and np.allclose(bary.sum(1), 1.0, atol=1e-15)
+    own_uv = np.einsum("nk,nkc->nc", bary, uv[faces[face]])
+    np.testing.assert_allclose(own_uv, np.einsum("nk,nkc->nc", w, mesh.uv[mesh.triangles[tri]]), atol=1e-13)
+    at_vertex = np.flatnonzero((w == 1.0).any(1))
+    vertex = mesh.triangles[tri[at_vertex], w[at_vertex].argmax(1)]
+    np.testing.assert_allclose(func(own_uv[at_vertex]), mesh.vertices[vertex], atol=1e-11)
 
 
 def test_vertex_numbering_starts_with_domain_vertices():
