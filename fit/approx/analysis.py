@@ -33,7 +33,7 @@ from scipy import ndimage
 
 from trispline.param import face_areas_3d
 from trispline.spline.checks import as_array
-from trispline.spline.topology import signed_areas
+from trispline.spline.topology import signed_areas, undirected_edges
 
 __all__ = ["ScanAnalysis", "analyse_scan", "edge_correlation", "POINTS_PER_CELL", "CURVATURE_POINTS", "SPIKE_LEVELS"]
 
@@ -206,6 +206,16 @@ def _cell_median(x: np.ndarray, cell: np.ndarray, ncell: int) -> np.ndarray:
     return out
 
 
+def _ring_level(stud: np.ndarray, F: np.ndarray, n: int) -> np.ndarray:
+    """``(n,)`` the level of each vertex's mesh neighbours' studentized residuals ``stud (n,)``: where the
+    spacing changes within a cell (a graded scan) the cell's median is the dense part's, while a vertex's
+    neighbours share its spacing and so its quadric's model error; an outlier's neighbours stay at the noise."""
+    _, edges, _, _ = undirected_edges(F, n)
+    edges = edges[edges[:, 0] != edges[:, 1]]
+    i, j = np.concatenate([edges[:, 0], edges[:, 1]]), np.concatenate([edges[:, 1], edges[:, 0]])
+    return MAD_TO_SIGMA * _cell_median(stud[j], i, n)
+
+
 def _fill(field: np.ndarray, valid: np.ndarray) -> np.ndarray:
     """``field (ny, nx)`` with every invalid cell set to its nearest valid cell's value."""
     if valid.all() or not valid.any():
@@ -370,6 +380,7 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
     unit = float(np.sqrt(max(float(auv.sum()), 1e-300) / n))  # uv spacing of the scan
     diagonal = float(np.linalg.norm(V.max(0) - V.min(0)))
     r, nrm, loo, stud, level, w = _adaptive_fits(V, uv, unit * np.sqrt(POINTS_PER_CELL), diagonal)
+    level = np.maximum(level, _ring_level(stud, F, n))
     noise = MAD_TO_SIGMA * float(np.median(stud))
     points = max(int(curvature_points), MIN_CELL_POINTS)
     for _ in range(2):  # a noisy scan needs larger cells: the noise's share falls like (points per cell)^-3

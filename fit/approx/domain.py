@@ -296,8 +296,9 @@ class BoundaryBudgetError(InputError):
     spacing tried (the corners kept depend on the spacing, so no floor is known before the passes)."""
 
     def __init__(self, budget: int, needed: int, corners: int, loops: int) -> None:
+        kept = f"{corners} corner{'s' * (corners != 1)}, {loops} loop{'s' * (loops != 1)}"
         super().__init__(f"a budget of {budget} vertices is below what the boundary needs: it took {needed} "
-                         f"vertices ({corners} corners, {loops} loops) at the coarsest spacing tried")
+                         f"vertices ({kept}) at the coarsest spacing tried")
         self.budget, self.needed = budget, needed
 
 

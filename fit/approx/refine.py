@@ -16,7 +16,7 @@ apply to it) when the scan analysis marks it a spike (far off the robust quadric
 neighbours, :attr:`~.analysis.ScanAnalysis.spike`; on the outline, also rougher than
 :data:`OUTLINE_REJECT_ROUGHNESS`), the fit leaves it farther than :data:`REJECT_SIGMAS` times
 the scan's noise away, and that quadric's distance accounts for :data:`REJECT_AGREEMENT` of the
-fit's (the point, not the surface, is off). Both are needed: a coherent region the coarse
+fit's and the fit's at least that share of it (the point, not the surface or the quadric, is off). Both are needed: a coherent region the coarse
 surface cannot follow yet is far from the fit but not a spike, and stays an inlier, so
 refinement fixes it instead of ignoring it. With the plain loss nothing is rejected.
 """
@@ -41,9 +41,11 @@ REJECT_SIGMAS = 6.0
 #: scans, sigma 1e-3 and 1e-4).
 OUTLINE_REJECT_ROUGHNESS = 10.0
 #: ... and only where its own leave-one-out residual (its distance from the scan's local quadric without it)
-#: is at least this share of its deviation: else the surface, not the point, is off (a clean square's corner
-#: cut off by a coarse chord: residual 1e-9 of the diagonal, deviation 4% of it, was rejected and the
-#: tolerance reported met); a spike's residual is about its deviation.
+#: and its deviation agree within this factor, both ways: a residual below this share of the deviation says
+#: the surface, not the point, is off (a clean square's corner cut off by a coarse chord: residual 1e-9 of the
+#: diagonal, deviation 4% of it, was rejected and the tolerance reported met); a deviation below this share
+#: of the residual, that the local quadric is (a graded clean scan's sparse flank: residual 0.13, deviation
+#: 6e-4, was rejected); a spike's residual is about its deviation.
 REJECT_AGREEMENT = 0.5
 #: A round at most multiplies the vertex count by this.
 GROWTH = 2.0
@@ -134,8 +136,9 @@ def measure(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit, located: tuple[np.
     dev = surface_deviation(fit.surface, V)
     rejected = np.zeros(V.shape[0], bool)
     if robust:
+        resid = dom.analysis.residual
         rejected = (dom.analysis.spike & (dev.distance > REJECT_SIGMAS * dom.stats.noise)
-                    & (dom.analysis.residual >= REJECT_AGREEMENT * dev.distance))
+                    & (resid >= REJECT_AGREEMENT * dev.distance) & (REJECT_AGREEMENT * resid <= dev.distance))
         ids = np.concatenate(dom.loops)
         rejected[ids] &= dom.analysis.roughness[ids] >= OUTLINE_REJECT_ROUGHNESS
     return Round(dom=dom, fit=fit, located=located, deviation=dev, rejected=rejected,

@@ -548,6 +548,24 @@ def test_a_coarse_region_beside_a_dense_one_is_judged_on_its_own_cells():
     assert res.deviation.distance[corners].max() <= res.stats["tolerance"]
 
 
+def test_a_graded_clean_scan_has_no_outliers_and_meets_the_tolerance_everywhere():
+    """A clean scan whose spacing grows 30x from a dense disc outward: the flank's vertices were judged by
+    the disc's residual level (the cells' median) and by extrapolated quadrics, 37 were rejected as
+    outliers and the tolerance reported met with clean points 34x beyond it. Now a vertex is judged
+    against its mesh neighbours too, and rejected only where the fit's deviation agrees with its residual."""
+    import triangle as tr
+
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    t = tr.triangulate(dict(vertices=square, segments=np.array([[0, 1], [1, 2], [2, 3], [3, 0]])), "pq30a0.01Q")
+    near = np.linalg.norm(t["vertices"][t["triangles"]].mean(1) - 0.5, axis=1) < 0.15
+    t = tr.triangulate(dict(t, triangle_max_area=np.where(near, 5e-6, 0.01)), "rpq30aQ")
+    uv, F = t["vertices"], t["triangles"]
+    V = np.column_stack([uv, 0.2 * np.exp(-((uv - 0.5) ** 2).sum(1) / 0.02)])
+    res = approximate_surface(V, F, tolerance_rel=1e-3)
+    assert res.stats["met"] and res.rejected.sum() <= 1e-3 * V.shape[0]
+    assert res.deviation.distance.max() <= res.stats["tolerance"]
+
+
 def _grid_scan(n: int, z) -> tuple[np.ndarray, np.ndarray]:
     """An ``n x n`` grid of the unit square with heights ``z(x, y)``."""
     x, y = (a.ravel() for a in np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n)))
