@@ -134,13 +134,23 @@ def _summary(args: argparse.Namespace, result: Any, mesh: Any, seconds: float) -
         param_used=result.parameterization.repaired or result.parameterization.method,
         corners=result.settings["corners"], loss=result.settings["loss"], tolerance=st["tolerance"],
         budget=st["budget"], met=st["met"], stop=st["stop"], deviation=st["deviation"],
-        deviation_all=st["deviation_all"], outline_gap=st["outline_gap"], rejected=st["rejected"], noise=st["noise"],
+        deviation_all=st["deviation_all"], outline_gap=st["outline_gap"], outline_tolerance=bool(args.outline_tolerance),
+        rejected=st["rejected"], noise=st["noise"],
         noise_correlation=st["noise_correlation"], rounds=result.history,
         weights=dataclasses.asdict(result.weights), data_weight=st["data_weight"],
         cross_validated=st["cross_validated"], energies=result.energies, iterations=int(result.iterations),
         converged=bool(result.converged), c1_residual=float(result.c1_residual),
         max_interpolation_error=float(result.max_interpolation_error), timings=dict(result.timings),
         seconds=seconds)
+
+
+def _gap_note(d: dict) -> str:
+    """Whether the outline's gap is held to the tolerance (``--outline-tolerance``) or only reported."""
+    if d["tolerance"] is None:
+        return ""
+    if d["outline_tolerance"]:
+        return " (held to the tolerance)"
+    return " (beyond the tolerance: reported, not refined)" if d["outline_gap"] > d["tolerance"] else ""
 
 
 def _text(d: dict) -> str:
@@ -153,8 +163,8 @@ def _text(d: dict) -> str:
         f"{d['patches']} quintic patches (param {d['param']}"
         + (f" -> {d['param_used']}" if d["param_used"] != d["param"] else "")
         + f", corners {d['corners']}, loss {d['loss']})",
-        f"  deviation of the inliers: max {fmt(dev['max'])}, RMS {fmt(dev['rms'])}, outline gap max "
-        f"{fmt(d['outline_gap'])} ({tol}); "
+        f"  deviation of the inliers: max {fmt(dev['max'])}, RMS {fmt(dev['rms'])} ({tol}); the outline's largest "
+        f"gap {fmt(d['outline_gap'])}{_gap_note(d)}; "
         f"{d['rejected']} points rejected as outliers; {len(d['rounds'])} rounds ({d['stop']})",
         f"  energies: {e}",
         f"  C1 residual {fmt(d['c1_residual'])} (relative), {d['seconds']:.1f} s",
