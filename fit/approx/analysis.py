@@ -82,7 +82,10 @@ class ScanAnalysis:
     noise : robust noise estimate ``1.4826 median(|r| / sqrt(1 - h))`` (model units)
     roughness : (n,) ``residual`` over the local level, ``1.4826`` times the cell's median (studentized)
         residual: the noise where there is noise, the quadric's model error where the data is exact,
-        so each vertex is judged against its neighbours; above :data:`SPIKE_LEVELS`: a spike
+        so each vertex is judged against its neighbours (the preferences of the coarse vertices, the loss scale)
+    outlier : (n,) ``residual`` over the larger of that level and its mesh neighbours' (:func:`_ring_level`:
+        on a graded scan a cell's median is its dense part's, while a vertex's neighbours share its spacing);
+        above :data:`SPIKE_LEVELS`: a spike
     smooth : (n, 3) each vertex moved onto its cell's robust quadric (along the quadric's normal)
     calm : (n,) the same studentized residual as ``roughness`` but against the robust quadric of the
         coarser curvature grid's cell, over that cell's level: its fit averages ``curvature_points``
@@ -109,6 +112,7 @@ class ScanAnalysis:
     residual: np.ndarray
     noise: float
     roughness: np.ndarray
+    outlier: np.ndarray
     smooth: np.ndarray
     calm: np.ndarray
     cell: np.ndarray
@@ -135,8 +139,9 @@ class ScanAnalysis:
 
     @property
     def spike(self) -> np.ndarray:
-        """(n,) bool: vertices far off their local fit (outliers, scanner spikes)."""
-        return self.roughness > SPIKE_LEVELS
+        """(n,) bool: vertices far off their local fit (outliers, scanner spikes): ``outlier`` above
+        :data:`SPIKE_LEVELS`."""
+        return self.outlier > SPIKE_LEVELS
 
     def cell_of(self, points: np.ndarray) -> np.ndarray:
         """Flat cell index ``(k,)`` of uv ``points (k, 2)`` (clamped to the grid)."""
@@ -380,7 +385,7 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
     unit = float(np.sqrt(max(float(auv.sum()), 1e-300) / n))  # uv spacing of the scan
     diagonal = float(np.linalg.norm(V.max(0) - V.min(0)))
     r, nrm, loo, stud, level, w = _adaptive_fits(V, uv, unit * np.sqrt(POINTS_PER_CELL), diagonal)
-    level = np.maximum(level, _ring_level(stud, F, n))
+    ring = np.maximum(level, _ring_level(stud, F, n))
     noise = MAD_TO_SIGMA * float(np.median(stud))
     points = max(int(curvature_points), MIN_CELL_POINTS)
     for _ in range(2):  # a noisy scan needs larger cells: the noise's share falls like (points per cell)^-3
@@ -404,6 +409,7 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
     scan_spacing = _fill(np.sqrt(np.where(dense, suv / np.maximum(cnt, 1), 0.0)).reshape(coarse.shape),
                          dense.reshape(coarse.shape))
     return ScanAnalysis(residual=np.abs(loo), noise=noise, roughness=np.abs(loo) / np.maximum(level, 1e-300),
+                        outlier=np.abs(loo) / np.maximum(ring, 1e-300),
                         smooth=V - r[:, None] * nrm, calm=studc / levelc,
                         cell=_cell_index(uv, coarse.origin, coarse.step, coarse.shape), origin=coarse.origin,
                         step=coarse.step, shape=coarse.shape, curvature=kappa, scale=scale, scan_spacing=scan_spacing,

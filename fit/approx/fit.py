@@ -34,8 +34,7 @@ from trispline.spline.polynomial import Polynomial, polynomial_control_net
 from trispline.spline.propagation import SplineSpace, build_space, working_origin
 from trispline.spline.surface import SplineSurface
 from trispline.spline.util.spd import spd_backend
-from trispline.spline.tolerances import (APPROX_CG_RTOL, APPROX_CONVERGED_GRAD_RTOL, APPROX_GN_ATOL, APPROX_GN_RTOL,
-                                         NOISE_CORRELATION_MAX)
+from trispline.spline.tolerances import APPROX_CG_RTOL, APPROX_CONVERGED_GRAD_RTOL, APPROX_GN_ATOL, APPROX_GN_RTOL
 
 from ..gauss_newton import DescentGaussNewton
 from ..solve import FactorSolver, SparseCholesky
@@ -46,9 +45,9 @@ from .problem import (CORNER_MODES, ApproxProblem, PlainSystem, plain_system, re
                       setup_problem)
 
 __all__ = ["CoarseFit", "fit_domain", "bend_face_weights", "BEND_WEIGHT_RANGE", "scan_parameters",
-           "scan_location", "corrected_parameters", "corrected_location", "outline_faces", "outline_factor",
-           "outline_weights", "OUTLINE_DATA_WEIGHT", "OUTLINE_POINT_WEIGHT", "WARPED_OUTLINE_DATA_WEIGHT",
-           "quadric_reference", "cross_validated_weight", "DescentGaussNewton",
+           "scan_location", "corrected_parameters", "corrected_location", "outline_faces", "outline_factor", "OUTLINE_DATA_WEIGHT",
+           "WARPED_OUTLINE_DATA_WEIGHT", "quadric_reference",
+           "cross_validated_weight", "DescentGaussNewton",
            "APPROX_WEIGHTS", "DATA_WEIGHTS", "EXTRAPOLATION"]
 
 #: Default weights of the approximation: thin-plate (less the reference quadric) and data. The
@@ -76,11 +75,6 @@ OUTLINE_DATA_WEIGHT = 1e4
 #: qslim's with 1e4, 0.31 with this, 0.26 with none; ``corners="fit"`` on face_gpjs m>d max 0.63 with 1e4
 #: and with none (a patch swings out), 0.23 with this.
 WARPED_OUTLINE_DATA_WEIGHT = 1e5
-#: The scan's outline vertices count this many times in the data term (:func:`outline_weights`): on a clean
-#: L-shape at 1e-4 the boundary curve ran 3.3e-3 past a straight outline in the surface's plane (12x the
-#: tolerance, invisible to the deviation) with 110 vertices; with this weight 71 vertices, 2.2e-4 past it. Not
-#: on noisy scans.
-OUTLINE_POINT_WEIGHT = 10.0
 #: A scan point outside the coarse polygon extrapolates its patch down to this barycentric coordinate.
 EXTRAPOLATION = -0.5
 
@@ -205,20 +199,6 @@ def outline_faces(dom: CoarseDomain) -> np.ndarray:
     return tri.boundary_edge_mask[tri.face_edges].any(1)
 
 
-def outline_weights(dom: CoarseDomain) -> np.ndarray:
-    """``(n,)`` each scan vertex's weight in the data term: :data:`OUTLINE_POINT_WEIGHT` on the scan's outline,
-    1 elsewhere. The outline's data is one-sided, so the smoothing's bias is largest there, and the
-    deviation (to the closest point, which is inside) cannot see a boundary curve that runs past the
-    outline in the surface's own plane. Where the scan's residuals are noise (the analysis's
-    ``noise_correlation`` at most :data:`~trispline.spline.tolerances.NOISE_CORRELATION_MAX`: Gaussian noise
-    -0.1, the shared real scans 0.26-0.56) the smoothing is what the outline needs too, and it stays 1 (with
-    it, the noisy bumps' ``corners="fit"`` RMS to the truth went 0.088 -> 0.148 sigma)."""
-    w = np.ones(dom.scan_uv.shape[0])
-    if dom.analysis.noise_correlation > NOISE_CORRELATION_MAX:  # the residuals are model error, not noise
-        w[np.concatenate(dom.loops)] = OUTLINE_POINT_WEIGHT
-    return w
-
-
 def outline_factor(data_weight: float, warped: bool = False) -> float:
     """The thin-plate factor of the :func:`outline_faces` at ``data_weight``: ``max(1, w / OUTLINE_DATA_WEIGHT)``
     (``warped``: :data:`WARPED_OUTLINE_DATA_WEIGHT`).
@@ -275,7 +255,7 @@ def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeig
     space = build_space(dom.triangulation)
     corner_xyz = Vn[dom.vertices] if corners == "data" else None
     ref_net = _reference_net(dom, V, reference, centre, size)
-    train = DataPoints(face[train], bary[train], Vn[train], outline_weights(dom)[train])
+    train = DataPoints(face[train], bary[train], Vn[train])
     bw, edge = bend_face_weights(dom), outline_faces(dom)
     sys = plain_system(space, train, corner_xyz, weights, "l2", ref_net, bend_weight=bw * ~edge)
     none = DataPoints(face[:0], bary[:0], Vn[:0])
@@ -339,7 +319,7 @@ def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX
     keep = np.flatnonzero(~unreached) if unreached.any() else slice(None)  # unreached: no data weight
     sc = size if scale is None else np.asarray(scale)
     points = robust_points(face[keep], bary[keep], (V[keep] - centre) / size, loss,
-                           (sc if np.ndim(sc) == 0 else sc[keep]) / size, outline_weights(dom)[keep])
+                           (sc if np.ndim(sc) == 0 else sc[keep]) / size)
     point_weight = None if point_weight is None else np.asarray(point_weight)[keep]
     corner_xyz = (V[dom.vertices] - centre) / size if corners == "data" else None
     bend_of = like.system if like is not None and like.weights == (weights.bend, weights.data, corners) else None

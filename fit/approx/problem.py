@@ -251,10 +251,8 @@ def residual_function(loss: str):
     return plain_residuals if loss == "l2" else robust_residuals
 
 
-def robust_points(face: np.ndarray, bary: np.ndarray, xyz: np.ndarray, loss: str, scale: float,
-                  weight: np.ndarray | None = None) -> DataPoints:
-    """DataPoints for ``loss="l2"``, else RobustPoints with the loss scale ``scale``; ``weight (n,)``: each
-    point's weight in the term (default 1)."""
+def robust_points(face: np.ndarray, bary: np.ndarray, xyz: np.ndarray, loss: str, scale: float) -> DataPoints:
+    """DataPoints for ``loss="l2"``, else RobustPoints with the loss scale ``scale``."""
     if loss == "l2":
-        return DataPoints(face, bary, xyz, weight)
-    return RobustPoints(face, bary, xyz, weight, loss=loss, scale=scale)
+        return DataPoints(face, bary, xyz)
+    return RobustPoints(face, bary, xyz, loss=loss, scale=scale)

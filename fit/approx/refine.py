@@ -35,7 +35,7 @@ __all__ = ["Round", "measure", "outline_gaps", "surface_gaps", "faceting", "pick
 
 #: A spike farther than this many noise standard deviations from the fit is rejected (robust losses only).
 REJECT_SIGMAS = 6.0
-#: ... a scan boundary vertex only with a roughness (local noise levels) of at least this: at a corner of
+#: ... a scan boundary vertex only with an outlier score (local noise levels) of at least this: at a corner of
 #: the outline the scan analysis's leave-one-out residual is large even on clean data (face_gpjs: a
 #: boundary vertex at 5.5, the scan's largest deviation at 2%), a 50-sigma outlier's is 37-51 (generated
 #: scans, sigma 1e-3 and 1e-4).
@@ -140,7 +140,7 @@ def measure(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit, located: tuple[np.
         rejected = (dom.analysis.spike & (dev.distance > REJECT_SIGMAS * dom.stats.noise)
                     & (resid >= REJECT_AGREEMENT * dev.distance) & (REJECT_AGREEMENT * resid <= dev.distance))
         ids = np.concatenate(dom.loops)
-        rejected[ids] &= dom.analysis.roughness[ids] >= OUTLINE_REJECT_ROUGHNESS
+        rejected[ids] &= dom.analysis.outlier[ids] >= OUTLINE_REJECT_ROUGHNESS
     return Round(dom=dom, fit=fit, located=located, deviation=dev, rejected=rejected,
                  inliers=summary(dev.distance, ~rejected), seconds=seconds,
                  outline=outline_gaps(dom, V, fit) if outline else None,

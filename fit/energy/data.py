@@ -40,13 +40,11 @@ class DataPoints:
     Attributes
     ----------
     face : (n,) int64 patches, bary : (n, 3) barycentric coordinates, xyz : (n, 3) data
-    weight : optional ``(n,)`` each sample's weight in the term (positive; default 1 each)
     """
 
     face: np.ndarray
     bary: np.ndarray
     xyz: np.ndarray
-    weight: np.ndarray | None = None
 
 
 def as_data_points(data_points, n_faces: int) -> DataPoints:
@@ -75,8 +73,6 @@ def setup(ctx: TermContext) -> dict[str, np.ndarray]:
         return dict(face=np.zeros(0, np.int64), bary=np.zeros((0, 3)), basis=np.zeros((0, NCTRL)),
                     target=np.zeros((0, 3)), scale=np.zeros(0))
     scale = np.full(dp.face.size, np.sqrt(ctx.weights.data * ctx.sample_weight))
-    if dp.weight is not None:
-        scale *= np.sqrt(np.asarray(dp.weight, float))
     bary = np.asarray(dp.bary, float)
     return dict(face=dp.face, bary=bary, basis=basis(bary), target=dp.xyz, scale=scale)
 
