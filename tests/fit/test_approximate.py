@@ -529,20 +529,27 @@ def test_an_outline_that_no_coarser_spacing_thins_is_refused_without_the_remaini
     assert e.value.needed > 30 and len(passes) < 2 * domain.BUDGET_PASSES
 
 
+_SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+
+
+def _graded_square(disc_area: float) -> tuple[np.ndarray, np.ndarray]:
+    """A clean Gaussian bump over the unit square: faces of area 0.01, ``disc_area`` within 0.15 of the centre."""
+    import triangle as tr
+
+    t = tr.triangulate(dict(vertices=_SQUARE, segments=np.array([[0, 1], [1, 2], [2, 3], [3, 0]])), "pq30a0.01Q")
+    near = np.linalg.norm(t["vertices"][t["triangles"]].mean(1) - 0.5, axis=1) < 0.15
+    t = tr.triangulate(dict(t, triangle_max_area=np.where(near, disc_area, 0.01)), "rpq30aQ")
+    uv, F = t["vertices"], t["triangles"]
+    return np.column_stack([uv, 0.2 * np.exp(-((uv - 0.5) ** 2).sum(1) / 0.02)]), F
+
+
 def test_a_coarse_region_beside_a_dense_one_is_judged_on_its_own_cells():
     """Cells sized by a dense disc's spacing hold too few of the coarse square's vertices: those are fitted
     on coarser cells, not extrapolated from the disc's (a clean corner was a 'spike' 0.16 off, rejected,
     cut off by a chord, and the tolerance reported met 40x over it)."""
-    import triangle as tr
-
-    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
-    t = tr.triangulate(dict(vertices=square, segments=np.array([[0, 1], [1, 2], [2, 3], [3, 0]])), "pq30a0.01Q")
-    near = np.linalg.norm(t["vertices"][t["triangles"]].mean(1) - 0.5, axis=1) < 0.15
-    t = tr.triangulate(dict(t, triangle_max_area=np.where(near, 2e-5, 0.01)), "rpq30aQ")
-    uv, F = t["vertices"], t["triangles"]
-    V = np.column_stack([uv, 0.2 * np.exp(-((uv - 0.5) ** 2).sum(1) / 0.02)])
-    corners = [int(np.argmin(np.linalg.norm(uv - c, axis=1))) for c in square]
-    assert np.linalg.norm(uv[corners] - square) == 0 and V.shape[0] > 1500
+    V, F = _graded_square(2e-5)
+    corners = [int(np.argmin(np.linalg.norm(V[:, :2] - c, axis=1))) for c in _SQUARE]
+    assert np.linalg.norm(V[corners, :2] - _SQUARE) == 0 and V.shape[0] > 1500
     res = approximate_surface(V, F, tolerance_rel=1e-3)
     assert res.stats["met"] and not res.rejected[corners].any()
     assert res.deviation.distance[corners].max() <= res.stats["tolerance"]
@@ -553,14 +560,7 @@ def test_a_graded_clean_scan_has_no_outliers_and_meets_the_tolerance_everywhere(
     the disc's residual level (the cells' median) and by extrapolated quadrics, 37 were rejected as
     outliers and the tolerance reported met with clean points 34x beyond it. Now a vertex is judged
     against its mesh neighbours too, and rejected only where the fit's deviation agrees with its residual."""
-    import triangle as tr
-
-    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
-    t = tr.triangulate(dict(vertices=square, segments=np.array([[0, 1], [1, 2], [2, 3], [3, 0]])), "pq30a0.01Q")
-    near = np.linalg.norm(t["vertices"][t["triangles"]].mean(1) - 0.5, axis=1) < 0.15
-    t = tr.triangulate(dict(t, triangle_max_area=np.where(near, 5e-6, 0.01)), "rpq30aQ")
-    uv, F = t["vertices"], t["triangles"]
-    V = np.column_stack([uv, 0.2 * np.exp(-((uv - 0.5) ** 2).sum(1) / 0.02)])
+    V, F = _graded_square(5e-6)
     res = approximate_surface(V, F, tolerance_rel=1e-3)
     assert res.stats["met"] and res.rejected.sum() <= 1e-3 * V.shape[0]
     assert res.deviation.distance.max() <= res.stats["tolerance"]
