@@ -385,7 +385,7 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
     unit = float(np.sqrt(max(float(auv.sum()), 1e-300) / n))  # uv spacing of the scan
     diagonal = float(np.linalg.norm(V.max(0) - V.min(0)))
     r, nrm, loo, stud, level, w = _adaptive_fits(V, uv, unit * np.sqrt(POINTS_PER_CELL), diagonal)
-    ring = np.maximum(level, _ring_level(stud, F, n))
+    outlier_level = np.maximum(level, _ring_level(stud, F, n))
     noise = MAD_TO_SIGMA * float(np.median(stud))
     points = max(int(curvature_points), MIN_CELL_POINTS)
     for _ in range(2):  # a noisy scan needs larger cells: the noise's share falls like (points per cell)^-3
@@ -409,7 +409,7 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
     scan_spacing = _fill(np.sqrt(np.where(dense, suv / np.maximum(cnt, 1), 0.0)).reshape(coarse.shape),
                          dense.reshape(coarse.shape))
     return ScanAnalysis(residual=np.abs(loo), noise=noise, roughness=np.abs(loo) / np.maximum(level, 1e-300),
-                        outlier=np.abs(loo) / np.maximum(ring, 1e-300),
+                        outlier=np.abs(loo) / np.maximum(outlier_level, 1e-300),
                         smooth=V - r[:, None] * nrm, calm=studc / levelc,
                         cell=_cell_index(uv, coarse.origin, coarse.step, coarse.shape), origin=coarse.origin,
                         step=coarse.step, shape=coarse.shape, curvature=kappa, scale=scale, scan_spacing=scan_spacing,

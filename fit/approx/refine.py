@@ -13,11 +13,11 @@ re-triangulates (boundary vertices move chords out toward the scan's outline).
 
 With a robust loss a scan vertex is **rejected** (an outlier: the tolerance does not
 apply to it) when the scan analysis marks it a spike (far off the robust quadric of its
-neighbours, :attr:`~.analysis.ScanAnalysis.spike`; on the outline, also rougher than
-:data:`OUTLINE_REJECT_ROUGHNESS`), the fit leaves it farther than :data:`REJECT_SIGMAS` times
-the scan's noise away, and that quadric's distance accounts for :data:`REJECT_AGREEMENT` of the
-fit's and the fit's at least that share of it (the point, not the surface or the quadric, is off). Both are needed: a coherent region the coarse
-surface cannot follow yet is far from the fit but not a spike, and stays an inlier, so
+neighbours, :attr:`~.analysis.ScanAnalysis.spike`; on the outline, with an outlier score of at
+least :data:`OUTLINE_REJECT_ROUGHNESS`), the fit leaves it farther than :data:`REJECT_SIGMAS` times
+the scan's noise away, and that quadric's distance and the fit's agree within a factor
+``1 / REJECT_AGREEMENT`` (the point, not the surface or the quadric, is off). Both are needed: a
+coherent region the coarse surface cannot follow yet is far from the fit but not a spike, and stays an inlier, so
 refinement fixes it instead of ignoring it. With the plain loss nothing is rejected.
 """
 from __future__ import annotations
