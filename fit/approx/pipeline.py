@@ -197,7 +197,8 @@ class _Options:
         return state.data_worst if self.outline_tolerance else state.max_deviation
 
 
-def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corners, loss, weights) -> _Options:
+def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corners, loss, weights,
+             outline_tolerance: bool = False) -> _Options:
     """Check every option (clear messages naming the bad value) and derive the budget."""
     if tolerance is not None and tolerance_rel is not None:
         raise InputError("give tolerance (model units) or tolerance_rel (of the diagonal), not both")
@@ -220,7 +221,7 @@ def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corn
                   else max(DEFAULT_BUDGET_MIN, int(round(DEFAULT_BUDGET_FRACTION * n))))
     return _Options(tolerance=tol, budget=min(budget, n), refine=tol is not None, corners=corners, loss=loss,
                     weights=APPROX_WEIGHTS if weights is None else weights, auto=weights is None,
-                    budget_given=n_vertices is not None)
+                    budget_given=n_vertices is not None, outline_tolerance=bool(outline_tolerance))
 
 
 def _smoothed(V: np.ndarray, F: np.ndarray, steps: int = PARAM_SMOOTHING) -> np.ndarray:
@@ -365,8 +366,8 @@ def approximate_surface(
         raise InputError(f"F must be integers, got dtype {F_in.dtype}")
     F = as_array(F_in, "F", (None, 3), integer=True, min_rows=1)
     diagonal = float(np.linalg.norm(V.max(0) - V.min(0)))
-    opt = _options(V.shape[0], diagonal, tolerance, tolerance_rel, n_vertices, corners, loss, weights)
-    opt = dataclasses.replace(opt, outline_tolerance=bool(outline_tolerance))
+    opt = _options(V.shape[0], diagonal, tolerance, tolerance_rel, n_vertices, corners, loss, weights,
+                   outline_tolerance)
     clock = StageTimer(None)
     report = progress or (lambda stage, info: None)
 
