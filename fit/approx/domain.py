@@ -605,9 +605,14 @@ def _choose(uv: np.ndarray, loops: tuple[np.ndarray, ...], sizing: _Sizing, lam:
     With a budget, the density scale is recalibrated from the interior count reached
     (about proportional to it) until the total is within 3% below the budget or after
     :data:`BUDGET_PASSES` passes; an excess left then is trimmed (:func:`_trim`). A
-    boundary that alone exceeds the budget is thinned with a coarser spacing first.
+    boundary that alone exceeds the budget is thinned with a coarser spacing first; where
+    the passes end on such a boundary, the largest choice within the budget seen before is
+    taken (the count is not monotone in the spacing: the corners found depend on it, so a
+    square's budget of 6 overshot to 7-9 boundary vertices between passes of 4), and only a
+    budget never met raises :class:`BoundaryBudgetError`.
     """
     counts: list[int] = []
+    fallback: tuple | None = None  # (total within the budget, boundary, interior, corners, lam)
     for it in range(2 * BUDGET_PASSES):
         boundary, corners = _thin_boundary(loops, uv, sizing, lam, corner_angle)
         boundary = _triangulate(uv, boundary, np.empty(0, np.int64), loops, position)[0]  # chords uncrossed
@@ -615,6 +620,8 @@ def _choose(uv: np.ndarray, loops: tuple[np.ndarray, ...], sizing: _Sizing, lam:
         if budget is not None and nb > budget:
             # two coarser spacings that thinned nothing: the corners and three a loop are all left (64 holes: 29 s)
             if it == 2 * BUDGET_PASSES - 1 or counts[-2:] == [nb, nb]:
+                if fallback is not None:
+                    return fallback[1:]
                 raise BoundaryBudgetError(budget, nb, corners.size, len(loops))
             lam *= 0.5 * (budget / nb) ** 2
             counts.append(nb)
@@ -630,6 +637,8 @@ def _choose(uv: np.ndarray, loops: tuple[np.ndarray, ...], sizing: _Sizing, lam:
         if it >= BUDGET_PASSES - 1 and total > budget:
             interior = _trim(uv, interior, total - budget, sizing, lam)
             break
+        if total < budget and (fallback is None or total > fallback[0]):
+            fallback = (total, boundary, interior, corners, lam)
         lam *= max(budget - nb, 1) / max(interior.size, 1)
     return boundary, interior, corners, lam
 
