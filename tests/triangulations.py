@@ -97,3 +97,12 @@ SMALL_DOMAINS = {
     "crisscross": lambda s: domains.grid(3, diagonal="crisscross"),
     "fan": lambda s: domains.fan(3 + s % 10),
 }
+
+
+def grid_scan(n: int, z) -> tuple[np.ndarray, np.ndarray]:
+    """An ``n x n`` grid of the unit square (two triangles a cell) with heights ``z(x, y)``: ``(V, F)``;
+    ``V[:, :2]`` is its own uv."""
+    x, y = (a.ravel() for a in np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n)))
+    q = np.arange(n * n).reshape(n, n)[:-1, :-1].ravel()
+    F = np.concatenate([np.column_stack([q, q + 1, q + n + 1]), np.column_stack([q, q + n + 1, q + n])])
+    return np.column_stack([x, y, z(x, y)]), F

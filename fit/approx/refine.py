@@ -16,9 +16,11 @@ apply to it) when the scan analysis marks it a spike (far off the robust quadric
 neighbours, :attr:`~.analysis.ScanAnalysis.spike`; on the outline, with an outlier score of at
 least :data:`OUTLINE_REJECT_ROUGHNESS`), the fit leaves it farther than :data:`REJECT_SIGMAS` times
 the scan's noise away, and that quadric's distance and the fit's agree within a factor
-``1 / REJECT_AGREEMENT`` (the point, not the surface or the quadric, is off). Both are needed: a
-coherent region the coarse surface cannot follow yet is far from the fit but not a spike, and stays an inlier, so
-refinement fixes it instead of ignoring it. With the plain loss nothing is rejected.
+``1 / REJECT_AGREEMENT`` (the point, not the surface or the quadric, is off), and it stands alone in
+the fit's deviation (:meth:`~.analysis.ScanAnalysis.isolated`: a line of spikes is a feature as sharp as
+the scan's spacing). All are needed: a coherent region the coarse surface cannot follow yet is far from
+the fit but not a spike, and stays an inlier, so refinement fixes it instead of ignoring it. With the plain
+loss nothing is rejected.
 """
 from __future__ import annotations
 
@@ -137,7 +139,7 @@ def measure(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit, located: tuple[np.
     rejected = np.zeros(V.shape[0], bool)
     if robust:
         resid = dom.analysis.residual
-        rejected = (dom.analysis.spike & (dev.distance > REJECT_SIGMAS * dom.stats.noise)
+        rejected = (dom.analysis.isolated(dev.distance) & (dev.distance > REJECT_SIGMAS * dom.stats.noise)
                     & (resid >= REJECT_AGREEMENT * dev.distance) & (REJECT_AGREEMENT * resid <= dev.distance))
         ids = np.concatenate(dom.loops)
         rejected[ids] &= dom.analysis.outlier[ids] >= OUTLINE_REJECT_ROUGHNESS

@@ -32,6 +32,7 @@ from trispline.fit.energy.data import DataPoints  # noqa: E402
 from trispline.fit.weights import FitWeights  # noqa: E402
 from trispline.spline import Triangulation  # noqa: E402
 from trispline.spline.errors import InputError  # noqa: E402
+from triangulations import grid_scan  # noqa: E402
 
 
 def height_field(f, n: int = 1200, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -566,18 +567,25 @@ def test_a_graded_clean_scan_has_no_outliers_and_meets_the_tolerance_everywhere(
     assert res.deviation.distance.max() <= res.stats["tolerance"]
 
 
-def _grid_scan(n: int, z) -> tuple[np.ndarray, np.ndarray]:
-    """An ``n x n`` grid of the unit square with heights ``z(x, y)``."""
-    x, y = (a.ravel() for a in np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n)))
-    q = np.arange(n * n).reshape(n, n)[:-1, :-1].ravel()
-    F = np.concatenate([np.column_stack([q, q + 1, q + n + 1]), np.column_stack([q, q + n + 1, q + n])])
-    return np.column_stack([x, y, z(x, y)]), F
+def test_a_clean_cliff_has_no_outliers_but_a_lone_spike_beside_it_is_one():
+    """A cliff as steep as the grid's spacing: every vertex on its slope is a spike to its local quadric,
+    and the coarse spline misses the whole line of them alike; 8 of them were rejected as outliers, up to
+    1.6x the tolerance. An outlier stands alone: its neighbours fit (:meth:`ScanAnalysis.isolated`)."""
+    V, F = grid_scan(80, lambda x, y: 0.3 * np.tanh(80 * (x - 0.5)))
+    V = np.round(V, 8)  # as an OBJ file has it (exact flats gave a noise estimate of 1e-26 and other spikes)
+    res = approximate_surface(V, F, tolerance_rel=1e-3)
+    assert res.domain.analysis.spike.sum() > 40 and res.stats["rejected"] == 0
+    assert res.stats["met"] == (res.deviation.distance.max() <= res.stats["tolerance"])  # the verdict is every point's
+    i = int(np.argmin(np.linalg.norm(V[:, :2] - [0.2, 0.5], axis=1)))
+    V[i, 2] += 0.05
+    spiked = approximate_surface(V, F, tolerance_rel=1e-3)
+    assert spiked.rejected[i] and spiked.stats["rejected"] == res.stats["rejected"] + 1
 
 
 def test_a_budget_alone_is_spent_where_its_rounds_gain():
     """The rounds' surface-to-scan gap sits at the scan's own faceting, nearer a flatter, worse surface: it
     must not make the seed (a quarter of the budget) win over rounds 4x as accurate at the scan's points."""
-    V, F = _grid_scan(30, lambda x, y: 0.1 * np.sin(3 * x) * np.cos(2 * y))
+    V, F = grid_scan(30, lambda x, y: 0.1 * np.sin(3 * x) * np.cos(2 * y))
     res = approximate_surface(V, F, n_vertices=50)
     assert res.stats["vertices"] == 50
     assert res.stats["deviation"]["max"] <= 0.5 * res.history[0]["max"]
@@ -586,7 +594,7 @@ def test_a_budget_alone_is_spent_where_its_rounds_gain():
 def test_a_budget_alones_final_fit_does_not_replace_a_far_better_round():
     """A tiny scan: the final fit's weight, cross-validated on a few points, may be poor; it does not replace
     the rounds' fit when it is worse (a 4 x 4 grid with corners 'fit': 1.5e-6 -> 1.1e-2 before)."""
-    V, F = _grid_scan(4, lambda x, y: 0.3 * np.sin(3 * x) * y)
+    V, F = grid_scan(4, lambda x, y: 0.3 * np.sin(3 * x) * y)
     res = approximate_surface(V, F, n_vertices=16, corners="fit")
     assert res.stats["deviation"]["max"] <= 1.1 * min(r["max"] for r in res.history)
 
