@@ -111,6 +111,8 @@ class ScanAnalysis:
         the mesh's edges (clipped at 3 ``noise``): about -0.1 where they are noise, which is independent
         vertex to vertex, 0.25-0.7 where they are the quadrics' model error, which varies smoothly
         (:func:`edge_correlation`)
+    spike_ring : ``(spike (r,), neighbour (r,))`` every mesh neighbour of every spike (for :meth:`isolated`);
+    spike_outline : (s,) the spikes on the scan's outline
     """
 
     residual: np.ndarray
