@@ -10,6 +10,8 @@ import importlib
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 jax.config.update("jax_enable_x64", True)
 
@@ -580,6 +582,24 @@ def test_a_clean_cliff_has_no_outliers_but_a_lone_spike_beside_it_is_one():
     V[i, 2] += 0.05
     spiked = approximate_surface(V, F, tolerance_rel=1e-3)
     assert spiked.rejected[i] and spiked.stats["rejected"] == res.stats["rejected"] + 1
+
+
+@settings(max_examples=6)
+@given(st.integers(1, 4), st.floats(0.5, 3.0), st.floats(1.0, 4.0), st.integers(0, 10_000))
+def test_lone_spikes_on_a_clean_scan_are_exactly_what_is_rejected(n_spikes, a, b, seed):
+    """Whatever the smooth shape, the rejected points are the spikes put into it, and nothing else."""
+    V, F = grid_scan(40, lambda x, y: 0.1 * np.sin(a * x + 0.3) * np.cos(b * y))
+    rng = np.random.default_rng(seed)
+    inner = np.flatnonzero((np.abs(V[:, :2] - 0.5) < 0.4).all(axis=1))
+    spikes = []
+    for i in rng.permutation(inner):  # at least 4 grid steps apart: lone spikes
+        if all(np.abs(V[i, :2] - V[j, :2]).max() > 0.1 for j in spikes):
+            spikes.append(i)
+        if len(spikes) == n_spikes:
+            break
+    V[spikes, 2] += rng.choice([-1.0, 1.0], len(spikes)) * rng.uniform(0.03, 0.1, len(spikes))
+    res = approximate_surface(V, F, tolerance_rel=1e-3)
+    assert set(np.flatnonzero(res.rejected)) == set(spikes)
 
 
 def test_a_budget_alone_is_spent_where_its_rounds_gain():
