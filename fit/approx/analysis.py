@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 from scipy import ndimage
 
 from trispline.param import face_areas_3d
@@ -69,6 +70,9 @@ SPIKE_LEVELS = 5.0
 #: (:meth:`ScanAnalysis.isolated`): a 6-sigma outlier's neighbours sit at about 0.7 sigma (one above 2 sigma
 #: 4.6% of the time); along a clean cliff the spline cannot follow, 0.8-1.4x.
 ISOLATION = 3.0
+#: ... or a group of at most this many spikes, each comparable only with spikes of the group and none on the
+#: outline: a cluster of outliers (a scanner's blob), where a feature's line of spikes is longer.
+CLUSTER_MAX = 4
 #: Smallest ``1 - leverage`` divided by (a vertex the fit interpolates gets a large, finite residual).
 LEVERAGE_FLOOR = 1e-3
 #: Smallest local residual level, relative to the diagonal (exact data: the level of rounding).
@@ -155,13 +159,31 @@ class ScanAnalysis:
     def isolated(self, distance: np.ndarray) -> np.ndarray:
         """(n,) bool: the spikes that stand alone in ``distance (n,)`` (their deviation from a fit): at most one
         mesh neighbour within :data:`ISOLATION` times of theirs (two adjacent outliers pass), none on the
-        outline. A feature the fit misses (a cliff or crease as sharp as the scan's spacing) is a line of
-        such spikes, two neighbours along it comparable (one where it runs out at the outline)."""
+        outline; or in a group of at most :data:`CLUSTER_MAX` spikes comparable only with each other, none on
+        the outline (a cluster of outliers). A feature the fit misses (a cliff or crease as sharp as the scan's
+        spacing) is a line of such spikes, two neighbours along it comparable (one where it runs out at the
+        outline), and runs on into clean vertices that the fit misses as much."""
         spike, neighbour = self.spike_ring
+        n = distance.shape[0]
         comparable = ISOLATION * distance[neighbour] >= distance[spike]
-        count = np.bincount(spike[comparable], minlength=distance.shape[0])
+        count = np.bincount(spike[comparable], minlength=n)
         count[self.spike_outline] += 1
-        return self.spike & (count <= 1)
+        alone = self.spike & (count <= 1)
+        # a small group of spikes, each comparable only with spikes of the group: a cluster of outliers
+        ids = np.flatnonzero(self.spike)
+        if ids.size:
+            pos = np.full(n, -1)
+            pos[ids] = np.arange(ids.size)
+            other = comparable & (pos[neighbour] < 0)  # a comparable neighbour that is no spike
+            link = comparable & (pos[neighbour] >= 0) & (ISOLATION * distance[spike] >= distance[neighbour])
+            graph = sp.coo_matrix((np.ones(int(link.sum())), (pos[spike[link]], pos[neighbour[link]])),
+                                  shape=(ids.size, ids.size))
+            _, label = connected_components(graph, directed=False)
+            size = np.bincount(label)[label]
+            clean_near = np.bincount(pos[spike[other]], minlength=ids.size) > 0
+            bad_group = np.bincount(label, clean_near | np.isin(ids, self.spike_outline)) > 0
+            alone[ids] |= (size <= CLUSTER_MAX) & ~bad_group[label]
+        return alone
 
     def cell_of(self, points: np.ndarray) -> np.ndarray:
         """Flat cell index ``(k,)`` of uv ``points (k, 2)`` (clamped to the grid)."""

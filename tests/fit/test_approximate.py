@@ -584,6 +584,19 @@ def test_a_clean_cliff_has_no_outliers_but_a_lone_spike_beside_it_is_one():
     assert spiked.rejected[i] and spiked.stats["rejected"] == res.stats["rejected"] + 1
 
 
+@pytest.mark.parametrize("sigma", [0.0, 1e-3])
+def test_a_small_cluster_of_outliers_is_rejected_whole(sigma):
+    """Three adjacent outliers (a scanner's blob) are each other's comparable neighbours but no clean
+    neighbour fits as badly: a cluster, not a feature (:data:`~trispline.fit.approx.analysis.CLUSTER_MAX`)."""
+    V, F = grid_scan(60, lambda x, y: 0.1 * np.sin(2 * x + 0.3) * np.cos(3 * y))
+    V[:, 2] += sigma * np.random.default_rng(0).normal(size=V.shape[0])
+    c = int(np.argmin(np.linalg.norm(V[:, :2] - 0.5, axis=1)))
+    blob = [c, c + 1, c + 60]
+    V[blob, 2] += 0.08
+    res = approximate_surface(V, F, tolerance_rel=5e-3 if sigma else 1e-3)
+    assert set(np.flatnonzero(res.rejected)) == set(blob) and res.stats["met"]
+
+
 @settings(max_examples=6)
 @given(st.integers(1, 4), st.floats(0.5, 3.0), st.floats(1.0, 4.0), st.integers(0, 10_000))
 def test_lone_spikes_on_a_clean_scan_are_exactly_what_is_rejected(n_spikes, a, b, seed):
