@@ -34,7 +34,7 @@ from scipy import ndimage
 
 from trispline.param import face_areas_3d
 from trispline.spline.checks import as_array
-from trispline.spline.topology import signed_areas, undirected_edges
+from trispline.spline.topology import outline_vertex_mask, signed_areas, undirected_edges
 
 __all__ = ["ScanAnalysis", "analyse_scan", "edge_correlation", "POINTS_PER_CELL", "CURVATURE_POINTS", "SPIKE_LEVELS"]
 
@@ -256,9 +256,8 @@ def _cell_median(x: np.ndarray, cell: np.ndarray, ncell: int) -> np.ndarray:
 def _neighbour_pairs(F: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(i, j, outline)``: every mesh edge of ``F (m, 3)`` in both directions (``j`` a neighbour of ``i``),
     and ``(n,)`` bool the vertices on a boundary edge."""
-    _, edges, _, count = undirected_edges(F, n)
-    outline = np.zeros(n, bool)
-    outline[edges[count == 1].ravel()] = True
+    he, edges, he_edge, count = undirected_edges(F, n)
+    outline = outline_vertex_mask(F, n, tables=(he, he_edge, count))
     edges = edges[edges[:, 0] != edges[:, 1]]
     return np.concatenate([edges[:, 0], edges[:, 1]]), np.concatenate([edges[:, 1], edges[:, 0]]), outline
 
