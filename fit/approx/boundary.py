@@ -32,6 +32,17 @@ __all__ = ["thin_loop", "CORNER_ANGLE", "SAGITTA"]
 
 #: Default turn (degrees) of the outline that makes a corner.
 CORNER_ANGLE = 35.0
+#: The arcs a turn is measured over are at most this share of the loop's length (:func:`_turn`).
+REACH_SHARE = 0.2
+#: Where the spacing reaches past that, a corner must also stand this share of ``corner_angle`` above the
+#: lowest turn within the arcs' reach: on a round loop every turn is alike and none is a corner, while a
+#: square's four stand 44 degrees above its sides' (:func:`_corners`).
+PROMINENCE = 0.5
+#: A corner's turn is also measured over arcs of this share of the spacing, and of its powers
+#: (:func:`_split_merged`) ...
+FINE = 0.25
+#: ... down to arcs of this many of the loop's shorter segments (its 10th percentile).
+FINEST_STEPS = 2.0
 #: A chord may cut off loop vertices by at most this many local spacings.
 SAGITTA = 0.25
 #: Loop vertices per kept vertex at least, for the spaced ones to be nudged to a smoother neighbour.
@@ -66,7 +77,7 @@ def _turn(p: np.ndarray, reach: np.ndarray) -> np.ndarray:
     the centroids of its two halves (a lone spike or a jagged edge moves them little)."""
     seg = np.linalg.norm(np.roll(p, -1, axis=0) - p, axis=1)
     s = np.concatenate([[0.0], np.cumsum(seg)])[:-1]
-    r = np.minimum(reach, 0.2 * seg.sum())
+    r = np.minimum(reach, REACH_SHARE * seg.sum())
     back = _arc_centroids(p, s - 0.5 * r, s) - _arc_centroids(p, s - r, s - 0.5 * r)
     ahead = _arc_centroids(p, s + 0.5 * r, s + r) - _arc_centroids(p, s, s + 0.5 * r)
     na, nb = np.linalg.norm(back, axis=1), np.linalg.norm(ahead, axis=1)
@@ -77,15 +88,69 @@ def _turn(p: np.ndarray, reach: np.ndarray) -> np.ndarray:
 def _corners(loop: np.ndarray, uv: np.ndarray, V: np.ndarray, spacing: np.ndarray, scale: np.ndarray,
              smooth: np.ndarray, corner_angle: float) -> tuple[np.ndarray, np.ndarray]:
     """Positions in the loop of its corners (sorted), and the turn at every loop vertex; the turn is
-    measured on the loop without its spikes (``smooth (L,)`` False), which get turn 0."""
+    measured on the loop without its spikes (``smooth (L,)`` False), which get turn 0.
+
+    A corner is a turn above ``corner_angle`` that is the largest within half the spacing along the loop;
+    where the spacing reaches past the turn's arcs (:data:`REACH_SHARE`) it must also stand out
+    (:data:`PROMINENCE`), and a corner blunt over shorter arcs that holds two sharp ones is split
+    (:func:`_split_merged`)."""
     keep = np.flatnonzero(smooth) if smooth.sum() >= 3 else np.arange(loop.size)
     p, x, h = uv[loop[keep]], V[loop[keep]], spacing[keep]
-    turn = np.zeros(loop.size)
-    turn[keep] = np.maximum(_turn(p, h), _turn(x, h * scale[keep]))
+    t = np.maximum(_turn(p, h), _turn(x, h * scale[keep]))
     seg = np.linalg.norm(np.roll(p, -1, axis=0) - p, axis=1)
-    window = int(max(1, np.round(np.median(0.5 * h) / max(float(np.median(seg)), 1e-300))))
-    peak = turn >= ndimage.maximum_filter1d(turn, 2 * window + 1, mode="wrap")
-    return np.flatnonzero(peak & (turn > np.radians(corner_angle))), turn
+    span = float(seg.sum())
+    arc = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
+    window = 0.5 * float(np.median(h))  # arc length about a corner that holds no other
+    corner = t > np.radians(corner_angle)
+    if window > 0.5 * REACH_SHARE * span:  # a spacing beyond the loop's size: every turn is measured over the same arcs
+        window = 0.5 * REACH_SHARE * span
+        corner &= t - _arc_filter(t, arc, span, 2 * window, np.minimum) > np.radians(PROMINENCE * corner_angle)
+    found = np.flatnonzero(corner & (t >= _arc_filter(t, arc, span, window, np.maximum)))
+    share, short = FINE, float(np.percentile(seg, 10))
+    while share * np.median(h) >= FINEST_STEPS * short:  # ever finer arcs, down to a few short loop segments
+        fine = np.maximum(_turn(p, share * h), _turn(x, share * h * scale[keep]))
+        radius = 0.5 * min(share * float(np.median(h)), REACH_SHARE * span)  # half the arcs' length
+        found = _split_merged(found, fine, arc, span, window, radius, corner_angle)
+        share *= FINE
+    turn = np.zeros(loop.size)
+    turn[keep] = t
+    return keep[found], turn
+
+
+def _arc_filter(values: np.ndarray, arc: np.ndarray, span: float, radius: float, reduce: np.ufunc) -> np.ndarray:
+    """``(L,)`` the largest (``reduce=np.maximum``) or least (``np.minimum``) of ``values (L,)`` within
+    ``radius`` along a loop of length ``span`` (``arc (L,)``: the vertices' arc lengths; segments of any
+    lengths, so a filter over a count of loop vertices would not do): a filter on a uniform resampling."""
+    m = 4 * values.size
+    at = np.minimum((arc / max(span, 1e-300) * m).astype(np.int64), m - 1)  # each vertex's cell
+    cells = np.full(m, -np.inf if reduce is np.maximum else np.inf)
+    reduce.at(cells, at, values)
+    filled = np.zeros(m, bool)
+    filled[at] = True
+    last = np.maximum.accumulate(np.where(filled, np.arange(m), -1))
+    cells = cells[np.where(last >= 0, last, at.max())]  # an empty cell: the vertex before it
+    f = ndimage.maximum_filter1d if reduce is np.maximum else ndimage.minimum_filter1d
+    return f(cells, 2 * int(np.ceil(radius / max(span, 1e-300) * m)) + 1, mode="wrap")[at]
+
+
+def _split_merged(found: np.ndarray, fine: np.ndarray, arc: np.ndarray, span: float, reach: float, peak: float,
+                  corner_angle: float) -> np.ndarray:
+    """``found`` with each corner that is blunt in the ``fine (L,)`` turn (measured over arcs of length
+    ``2 peak``) but holds two or more sharp peaks of it (each the largest within ``peak``) within ``reach``
+    along the loop (``arc (L,)``: arc length, ``span``: the loop's length) replaced by those peaks: two
+    corners closer than the spacing (a strip's short side, an L's arm end) merge into one turn of their
+    sum halfway between them, where the outline runs straight."""
+    sharp_ok = fine > np.radians(corner_angle)
+    sharp = np.flatnonzero(sharp_ok & (fine >= _arc_filter(fine, arc, span, peak, np.maximum)))
+    blunt = found[~sharp_ok[found]]
+    if blunt.size == 0 or sharp.size < 2:
+        return found
+    d = np.abs(arc[sharp][:, None] - arc[blunt][None])
+    near = np.minimum(d, span - d) <= reach  # (S, B)
+    merged = near.sum(0) >= 2
+    if not merged.any():
+        return found
+    return np.union1d(np.setdiff1d(found, blunt[merged]), sharp[near[:, merged].any(1)])
 
 
 def _spaced(tau: np.ndarray, anchors: np.ndarray, L: int) -> np.ndarray:

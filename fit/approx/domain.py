@@ -582,6 +582,13 @@ def coarse_domain(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, n_vertices: i
         if (moved == ids).all():
             break
         interior = moved[nb:]
+    excess = 0 if n_vertices is None else nb + interior.size - n_vertices
+    if excess > 0:  # the triangulation split chords that crossed the outline: inner vertices give way
+        free = interior[~fixed[interior]]
+        interior = np.union1d(interior[fixed[interior]], _trim(uv, free, excess, sizing, lam))
+        boundary, ids, faces, segments = _triangulate(uv, boundary, interior, loops, position, segments)
+        if ids.size > n_vertices:
+            raise BoundaryBudgetError(n_vertices, ids.size - interior.size, corners.size, len(loops))
     median_spacing = float(np.median(sizing.spacing3d(lam, uv[:: max(1, n // 4096)])))
     return _domain(uv, boundary, interior, corners, loops, position, a, median_spacing, segments, F if warp else None)
 
@@ -645,8 +652,10 @@ def _choose(uv: np.ndarray, loops: tuple[np.ndarray, ...], sizing: _Sizing, lam:
 
 def _trim(uv: np.ndarray, interior: np.ndarray, excess: int, sizing: _Sizing, lam: float) -> np.ndarray:
     """``interior`` less the ``excess`` vertices nearest their neighbours against the local spacing."""
-    if excess <= 0 or interior.size < 2:
+    if excess <= 0:
         return interior
+    if excess >= interior.size:
+        return interior[:0]
     p = uv[interior]
     d = cKDTree(p).query(p, k=2)[0][:, 1] / sizing.spacing(lam, p)
     return np.sort(interior[np.argsort(d, kind="stable")[excess:]])
