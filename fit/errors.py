@@ -17,6 +17,11 @@ class FactorMemoryError(InputError):
         self.available = available  # bytes
 
 
+class NotPositiveDefinite(InputError):
+    """The fit's normal matrix cannot be factored in float64: triangles too thin for the spline's C1
+    conditions (a bad input: :func:`~trispline.fit.pipeline.fit_surface` names them)."""
+
+
 class X64Error(RuntimeError):
     """JAX is not running in float64."""
 

@@ -156,6 +156,11 @@ class QuadraticStep:
         self._thread = threading.Thread(target=compile_step, name="trispline-compile", daemon=True)
         self._thread.start()
 
+    def close(self) -> None:
+        """Wait for the compile (where the fit stops before :meth:`run`: XLA's thread still compiling at the
+        interpreter's exit aborted it, "terminate called ... FATAL: exception not rethrown")."""
+        self._thread.join()
+
     def run(self, factor: SparseCholesky) -> tuple[np.ndarray, dict[str, float], int, bool]:
         """``(x (k, 3), energies, steps = 1, converged)`` with the factor of ``prob.H``."""
         self._thread.join()

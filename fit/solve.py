@@ -39,7 +39,7 @@ import scipy.sparse as sp
 from trispline.spline.util.memory import available_memory, page_size, thread_page_faults
 from trispline.spline.util.spd import SPD_PARDISO_MIN, point_pypardiso_at_mkl, spd_backend
 
-from .errors import X64Error
+from .errors import NotPositiveDefinite, X64Error
 from .limits import refuse_above
 from .progress import Report, silent, span, watching
 
@@ -229,8 +229,12 @@ class SparseCholesky:
 
             L = sp.csr_matrix(U.T)  # cholespy reads the lower triangle of a CSR matrix
             L.sort_indices()
-            self._solver = cholespy.CholeskySolverD(self.n, L.indptr.astype(np.int32), L.indices.astype(np.int32),
-                                                    np.ascontiguousarray(L.data), cholespy.MatrixType.CSR)
+            try:
+                self._solver = cholespy.CholeskySolverD(self.n, L.indptr.astype(np.int32),
+                                                        L.indices.astype(np.int32), np.ascontiguousarray(L.data),
+                                                        cholespy.MatrixType.CSR)
+            except ValueError as exc:  # "Matrix is not positive definite!"
+                raise NotPositiveDefinite(f"the normal matrix is not positive definite ({exc})") from exc
         else:
             import scipy.sparse.linalg as spla
 
@@ -333,7 +337,7 @@ class SparseCholesky:
         try:
             watching(factor, written, report)
         except pypardiso.pardiso_wrapper.PyPardisoError as exc:  # -4: zero or negative pivot
-            raise np.linalg.LinAlgError(f"the normal matrix is not positive definite ({exc})") from exc
+            raise NotPositiveDefinite(f"the normal matrix is not positive definite ({exc})") from exc
 
     def _pardiso(self, phase: int, b: np.ndarray | None = None) -> np.ndarray:
         """One PARDISO phase on the stored upper triangle; ``b (n, k)`` Fortran order for phase 33.

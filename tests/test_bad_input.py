@@ -652,6 +652,33 @@ def test_a_sliver_is_bad_input(tmp_path, capsys):
     np.testing.assert_allclose(face_aspects(V, np.array([[0, 1, 2]])), [1e8], rtol=1e-6)
 
 
+def _random_square(seed: int = 5, n: int = 200) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` random points of the unit square and its corners, Delaunay, lifted to a smooth height field."""
+    from scipy.spatial import Delaunay
+
+    P = np.r_[np.random.default_rng(seed).random((n, 2)), [[0, 0], [1, 0], [0, 1], [1, 1]]]
+    return np.c_[P, 0.2 * np.sin(3 * P[:, 0]) * np.cos(2 * P[:, 1])], Delaunay(P).simplices
+
+
+def test_a_triangle_too_thin_for_float64_is_bad_input_naming_it(tmp_path, capsys):
+    """A random point 1.4e-6 from the square's side leaves a triangle of aspect 7e5, below the sliver limit
+    (1e6), whose C1 conditions still left the normal matrix indefinite in float64: exit 1, "internal error".
+    Now bad input naming the triangle's vertices (a ridge that let it factor gave a surface 25x the scan)."""
+    V, F = _random_square()
+    path = tmp_path / "scan.obj"
+    trimesh.Trimesh(V, F, process=False).export(path)
+    out = tmp_path / "s.npz"
+    out.write_bytes(b"keep me")
+    assert_cli_error(cli(capsys, "fit", path, "-o", out, "--quiet"), "the fit cannot be solved in float64")
+    assert out.read_bytes() == b"keep me"
+    assert_no_temporaries(tmp_path)
+    from trispline.fit import fit_surface
+    from trispline.fit.errors import NotPositiveDefinite
+
+    with pytest.raises(NotPositiveDefinite, match=r"\(102, 202, 200\) 7\.3e\+05"):
+        fit_surface(V, F)  # (over the true uv it factors)
+
+
 @pytest.mark.parametrize("mode, match", [((), "lscm map of this mesh is undefined"),
                                          (("--param", "harmonic"), "slivers too thin to fit"),
                                          (("--tolerance-rel", "0.01"), "lscm map of this mesh is undefined"),
