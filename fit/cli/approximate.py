@@ -32,6 +32,27 @@ _MODE_OPTIONS = ("corners", "loss", "strict", "outline_tolerance")
 _USED_WEIGHTS = ("bend", "data")
 
 
+
+def vertex_budget(text: str) -> int:
+    """argparse type of ``--vertices``: an integer >= 3 (the fewest a domain has: one triangle)."""
+    v = positive_int(text)
+    if v < 3:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 3 (a domain is at least one triangle), got {v}")
+    return v
+
+
+#: A kept fit with fewer than this share of the largest round's vertices: more vertices did not help.
+STALLED_SHARE = 0.8
+
+
+def _advice(st: dict, history: list[dict]) -> str:
+    """What to try where the tolerance was not met: more vertices, unless rounds with more did not help."""
+    most = max((h["vertices"] for h in history), default=st["vertices"])
+    if st["vertices"] < STALLED_SHARE * most:
+        return (f"the fit kept has {st['vertices']} vertices: the rounds up to {most} deviated more, so more "
+                f"vertices alone may not help (try --corners data, another --loss or a larger tolerance)")
+    return "raise --vertices or the tolerance"
+
 def add_options(p: argparse.ArgumentParser) -> None:
     """The approximation's options on ``fit``'s parser."""
     g = p.add_argument_group("approximation (a coarse spline within a tolerance instead of interpolation; "
@@ -41,7 +62,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
                         "(default none: interpolate every vertex)")
     g.add_argument("--tolerance-rel", type=positive_float, metavar="R",
                    help="the same as a fraction of the bounding-box diagonal, e.g. 1e-3 (default none)")
-    g.add_argument("--vertices", type=positive_int, metavar="N",
+    g.add_argument("--vertices", type=vertex_budget, metavar="N",
                    help="vertex budget (default 10%% of the scan with a tolerance; alone: at most N vertices, "
                         "spent where the deviation is largest)")
     g.add_argument("--corners", choices=("data", "fit"), default=None,
@@ -202,7 +223,7 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
             ui.result(data, _text)
             print(f"{PROG}: error: {what}; nothing written (--strict)", file=sys.stderr)
             return EXIT_CHECK
-        ui.warn(f"{what}; raise --vertices or the tolerance")
+        ui.warn(f"{what}; {_advice(st, result.history)}")
     surface = extras(result, result.weights, args.param, mesh.source, None)
     if mesh.kept is not None:  # coarse vertex -> vertex of the mesh file
         from trispline.spline.surface import SplineSurface

@@ -94,7 +94,7 @@ def test_vertices_alone_fits_at_most_that_many(scan, tmp_path, capsys):
     (("--tolerance-rel", "inf"), "expected a finite number > 0, got inf"),
     (("--tolerance", "1", "--tolerance-rel", "1e-3"), "not both"),
     (("--vertices", "0"), "expected a positive integer, got 0"),
-    (("--vertices", "2"), "n_vertices must be an integer >= 3, got 2"),
+    (("--vertices", "2"), "argument --vertices: expected an integer >= 3 (a domain is at least one triangle), got 2"),
     (("--vertices", "4"), "a budget of 4 vertices is below what the boundary needs"),
     (("--corners", "fit"), "--corners needs --tolerance, --tolerance-rel or --vertices"),
     (("--strict",), "--strict needs --tolerance"),
@@ -107,6 +107,16 @@ def test_bad_input_is_one_line_exit_2_and_no_file(scan, tmp_path, capsys, args, 
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("trispline: error: ") and match in lines[0], err
     assert stdout == "" and not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_the_advice_on_an_unmet_tolerance_follows_the_rounds():
+    from trispline.fit.cli.approximate import _advice
+
+    rounds = [{"vertices": v} for v in (16, 40, 80, 100)]
+    assert _advice({"vertices": 100}, rounds) == "raise --vertices or the tolerance"
+    assert _advice({"vertices": 99}, rounds) == "raise --vertices or the tolerance"
+    # the round kept (smallest max deviation) was an early one: a larger budget buys nothing
+    assert "the fit kept has 27 vertices: the rounds up to 100 deviated more" in _advice({"vertices": 27}, rounds)
 
 
 def test_help_lists_the_approximation_options(capsys):
