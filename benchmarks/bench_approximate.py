@@ -530,6 +530,51 @@ def zebra(name: str, out: str) -> None:
     print(f"wrote {out}")
 
 
+def _corner_row(label: str, uv: np.ndarray, F: np.ndarray, want: np.ndarray, budgets: range) -> tuple[str, int]:
+    """One shape's budgets: ``ok`` (every corner of ``want`` a coarse vertex), ``MISS<count>`` or
+    ``err<needed>`` (a budget refused; right when it is below the corners' count)."""
+    from trispline.fit.approx import coarse_domain
+    from trispline.spline.errors import InputError
+
+    V = np.column_stack([uv, 0.2 * np.sin(3 * uv[:, 0]) * np.cos(2 * uv[:, 1]) + 0.1 * uv[:, 0] * uv[:, 1]])
+    cells, good = [], 0
+    for b in budgets:
+        try:
+            dom = coarse_domain(V, F, uv, n_vertices=b)
+        except InputError as exc:
+            cells.append(f"{b}:err{getattr(exc, 'needed', '?')}")
+            good += b < len(want)
+            continue
+        ok = np.linalg.norm(dom.uv[:, None] - want[None], axis=2).min(0).max() < 1e-9 and dom.stats.n_vertices <= b
+        cells.append(f"{b}:{'ok' if ok else f'MISS{dom.stats.n_vertices}'}")
+        good += bool(ok)
+    return f"{label:<14} " + " ".join(cells), good
+
+
+def corners_table() -> None:
+    """Whether the coarse domain keeps an outline's corners at small budgets (its own uv given): rectangles
+    of aspect 1-30 on 20 x 20 and 40 x 40 grids at budgets 3-16, L-shapes of 200-1,500 random points at 4-19."""
+    from trispline.spline.testing import domains
+
+    total = good = 0
+    for aspect in (1, 2, 4, 10, 30):
+        for n in (20, 40):
+            uv, F = domains.grid(n - 1)
+            uv = uv * [aspect, 1.0]
+            text, k = _corner_row(f"rect {aspect}:1 {n}", uv, F, np.array([[0, 0], [aspect, 0], [aspect, 1], [0, 1]]),
+                                  range(3, 17))
+            print(text, flush=True)
+            total, good = total + 14, good + k
+    want = np.array([[0, 0], [1, 0], [1, 0.5], [0.5, 0.5], [0.5, 1], [0, 1]])
+    for seed in (1, 2):
+        for n in (200, 400, 1500):
+            uv, F = domains.l_shape(n, seed=seed)
+            text, k = _corner_row(f"L {n} s{seed}", uv, F, want, range(4, 20))
+            print(text, flush=True)
+            total, good = total + 16, good + k
+    print(f"every corner kept within the budget, or a budget below the corners refused: {good} of {total}")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--only", nargs="*", help="row names (mesh files or generated-100k / generated-1M)")
@@ -546,6 +591,7 @@ def main(argv=None) -> int:
     ap.add_argument("--no-interpolation", action="store_true",
                     help="without the interpolating fit (--compactness and the equal-size table)")
     ap.add_argument("--speed", action="store_true", help="trispline fit --tolerance-rel 1e-3 end to end")
+    ap.add_argument("--corners", action="store_true", help="the outline's corners at small budgets")
     ap.add_argument("--zebra", metavar="PNG", help="zebra picture of --only's first mesh (default beetle.off): "
                                                   "interpolated beside approximated at 1e-3")
     ap.add_argument("--child", help=argparse.SUPPRESS)
@@ -562,6 +608,8 @@ def main(argv=None) -> int:
         compactness(args.only, not args.no_interpolation)
     elif args.speed:
         speed(args.no_million)
+    elif args.corners:
+        corners_table()
     else:
         equal_size(args)
     return 0

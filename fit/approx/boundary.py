@@ -111,7 +111,7 @@ def _corners(loop: np.ndarray, uv: np.ndarray, V: np.ndarray, spacing: np.ndarra
     found = np.flatnonzero(corner & (t >= _arc_filter(t, arc, span, window, np.maximum)))
     share, short = FINE, float(np.percentile(seg, 10))
     while share * np.median(h) >= FINEST_STEPS * short:  # ever finer arcs, down to a few short loop segments
-        fine = np.maximum(_turn(p, share * h), _turn(x, share * h * scale[keep]))
+        fine = _turn(p, share * h)  # in uv: a boundary wavy in 3D has no corners to split out
         radius = 0.5 * min(share * float(np.median(h)), REACH_SHARE * span)  # half the arcs' length
         found = _split_merged(found, fine, arc, span, window, radius, corner_angle)
         share *= FINE
@@ -144,22 +144,25 @@ def _arc_filter(values: np.ndarray, arc: np.ndarray, span: float, radius: float,
 
 def _split_merged(found: np.ndarray, fine: np.ndarray, arc: np.ndarray, span: float, reach: float, peak: float,
                   corner_angle: float) -> np.ndarray:
-    """``found`` with each corner that is blunt in the ``fine (L,)`` turn (measured over arcs of length
-    ``2 peak``) but holds two or more sharp peaks of it (each the largest within ``peak``) within ``reach``
-    along the loop (``arc (L,)``: arc length, ``span``: the loop's length) replaced by those peaks: two
-    corners closer than the spacing (a strip's short side, an L's arm end) merge into one turn of their
-    sum halfway between them, where the outline runs straight."""
+    """``found`` sharpened by the ``fine (L,)`` turn, measured over arcs of length ``2 peak`` (``arc (L,)``: arc
+    length along the loop, ``span``: its length). A corner blunt there that holds two or more sharp peaks of
+    it (each the largest within ``peak``) within ``reach`` is replaced by those peaks: two corners closer
+    than the spacing (a strip's short side, an L's arm end) merge into one turn of their sum halfway
+    between them, where the outline runs straight. A corner with one sharp peak within ``reach`` moves to
+    it if it lies within ``2 peak`` (the longer arcs' turn, in 3D too, can peak a few loop vertices off a
+    corner)."""
     sharp_ok = fine > np.radians(corner_angle)
     sharp = np.flatnonzero(sharp_ok & (fine >= _arc_filter(fine, arc, span, peak, np.maximum)))
-    blunt = found[~sharp_ok[found]]
-    if blunt.size == 0 or sharp.size < 2:
+    if found.size == 0 or sharp.size == 0:
         return found
-    d = np.abs(arc[sharp][:, None] - arc[blunt][None])
-    near = np.minimum(d, span - d) <= reach  # (S, B)
-    merged = near.sum(0) >= 2
-    if not merged.any():
-        return found
-    return np.union1d(np.setdiff1d(found, blunt[merged]), sharp[near[:, merged].any(1)])
+    d = np.abs(arc[sharp][:, None] - arc[found][None])
+    d = np.minimum(d, span - d)  # (S, C)
+    several = (d <= reach).sum(0) >= 2
+    merged = ~sharp_ok[found] & several
+    close = d <= 2 * peak
+    best = np.where(close, fine[sharp][:, None], -np.inf).argmax(0)
+    moved = np.where(close.any(0) & ~several, sharp[best], found)  # two peaks near: a finer level splits it
+    return np.union1d(moved[~merged], sharp[(d[:, merged] <= reach).any(1)])
 
 
 def _spaced(tau: np.ndarray, anchors: np.ndarray, L: int) -> np.ndarray:
