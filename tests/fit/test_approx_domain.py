@@ -122,6 +122,18 @@ def test_a_rectangles_four_corners_survive_every_budget(aspect):
         assert np.linalg.norm(dom.uv[:, None] - rect[None], axis=2).min(0).max() < 1e-12, budget
 
 
+def test_a_corner_peaked_beside_moves_onto_it():
+    # a 2 x 1 tile on a 40 x 40 grid, its boundary wavy in 3D: at a budget of 8 the turn over a spacing's
+    # arcs peaked at (1.95, 1), one loop vertex off the corner, which the chord then cut off
+    uv, F = domains.grid(39)
+    uv = uv * [2.0, 1.0]
+    V = lift(uv)
+    rect = np.array([[0, 0], [2, 0], [2, 1], [0, 1]])
+    for budget in range(4, 9):
+        dom = coarse_domain(V, F, uv, n_vertices=budget)
+        assert np.linalg.norm(dom.uv[:, None] - rect[None], axis=2).min(0).max() < 1e-12, budget
+
+
 @pytest.mark.parametrize("budget", [6, 7])
 def test_an_l_shapes_six_corners_survive_the_smallest_budgets(budget):
     uv, F = domains.l_shape(400, seed=1)
