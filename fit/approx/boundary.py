@@ -94,8 +94,9 @@ def _corners(loop: np.ndarray, uv: np.ndarray, V: np.ndarray, spacing: np.ndarra
     on the outer loop, where the spacing reaches past the turn's arcs (:data:`REACH_SHARE`), within a tenth
     of the loop, and it must also stand out (:data:`PROMINENCE`): a hole's outline keeps its one largest
     turn there, as its coverage does not depend on it (applied to holes too, this lost beetle's and
-    halftunnel's targets at equal size: model-to-scan RMS 0.31 -> 0.36 and 0.22 -> 0.51 of qslim's). A
-    corner blunt over shorter arcs that holds two sharp ones is split (:func:`_split_merged`)."""
+    halftunnel's targets at equal size: model-to-scan RMS 0.31 -> 0.36 and 0.21 -> 0.51 of qslim's). Then
+    the uv turn over ever shorter arcs splits a corner that merged two, and moves one that peaked beside a
+    sharp turn onto it (:func:`_split_merged`)."""
     keep = np.flatnonzero(smooth) if smooth.sum() >= 3 else np.arange(loop.size)
     p, x, h = uv[loop[keep]], V[loop[keep]], spacing[keep]
     t = np.maximum(_turn(p, h), _turn(x, h * scale[keep]))
