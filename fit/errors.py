@@ -1,6 +1,8 @@
 """Every exception and warning type of the fit layer (on top of :mod:`trispline.spline.errors`)."""
 from __future__ import annotations
 
+import numpy as np
+
 from trispline.spline.errors import InputError, OutputError
 
 
@@ -17,7 +19,7 @@ class FactorMemoryError(InputError):
         self.available = available  # bytes
 
 
-class NotPositiveDefinite(InputError):
+class NotPositiveDefinite(InputError, np.linalg.LinAlgError):
     """The fit's normal matrix cannot be factored in float64: triangles too thin for the spline's C1
     conditions (a bad input: :func:`~trispline.fit.pipeline.fit_surface` names them)."""
 

@@ -94,9 +94,10 @@ def _corners(loop: np.ndarray, uv: np.ndarray, V: np.ndarray, spacing: np.ndarra
     on the outer loop, where the spacing reaches past the turn's arcs (:data:`REACH_SHARE`), within a tenth
     of the loop, and it must also stand out (:data:`PROMINENCE`): a hole's outline keeps its one largest
     turn there, as its coverage does not depend on it (applied to holes too, this lost beetle's and
-    halftunnel's targets at equal size: model-to-scan RMS 0.31 -> 0.36 and 0.21 -> 0.51 of qslim's). Then
-    the uv turn over ever shorter arcs splits a corner that merged two, and moves one that peaked beside a
-    sharp turn onto it (:func:`_split_merged`)."""
+    halftunnel's targets at equal size: model-to-scan RMS 0.31 -> 0.36 and 0.21 -> 0.51 of qslim's). Then,
+    on the outer loop, the uv turn over ever shorter arcs splits a corner that merged two, and moves one that
+    peaked beside a sharp turn onto it (:func:`_split_merged`; on a small round hole, jagged at the scan's
+    spacing, it found up to 9 corners and a coarse face reached over the hole)."""
     keep = np.flatnonzero(smooth) if smooth.sum() >= 3 else np.arange(loop.size)
     p, x, h = uv[loop[keep]], V[loop[keep]], spacing[keep]
     t = np.maximum(_turn(p, h), _turn(x, h * scale[keep]))
@@ -111,10 +112,11 @@ def _corners(loop: np.ndarray, uv: np.ndarray, V: np.ndarray, spacing: np.ndarra
         corner &= t - _arc_filter(t, arc, span, 2 * window, np.minimum) > np.radians(PROMINENCE * corner_angle)
     found = np.flatnonzero(corner & (t >= _arc_filter(t, arc, span, window, np.maximum)))
     share, short = FINE, float(np.percentile(seg, 10))
-    while share * np.median(h) >= FINEST_STEPS * short:  # ever finer arcs, down to a few short loop segments
+    arcs = min(float(np.median(h)), REACH_SHARE * span)  # a merged turn's corners lie within its arcs
+    while outer and share * np.median(h) >= FINEST_STEPS * short:  # ever finer arcs, down to a few short segments
         fine = _turn(p, share * h)  # in uv: a boundary wavy in 3D has no corners to split out
         radius = 0.5 * min(share * float(np.median(h)), REACH_SHARE * span)  # half the arcs' length
-        found = _split_merged(found, fine, arc, span, window, radius, corner_angle)
+        found = _split_merged(found, fine, arc, span, arcs, radius, corner_angle)
         share *= FINE
     turn = np.zeros(loop.size)
     turn[keep] = t
@@ -151,9 +153,11 @@ def _split_merged(found: np.ndarray, fine: np.ndarray, arc: np.ndarray, span: fl
     than the spacing (a strip's short side, an L's arm end) merge into one turn of their sum halfway
     between them, where the outline runs straight. A corner with one sharp peak within ``reach`` moves to
     it if it lies within ``2 peak`` (the longer arcs' turn, in 3D too, can peak a few loop vertices off a
-    corner)."""
+    corner). A sharp peak also stands :data:`PROMINENCE` above the turns within ``2 peak``: over such arcs
+    a small round hole turns 50 degrees everywhere, and split into all its vertices."""
     sharp_ok = fine > np.radians(corner_angle)
-    sharp = np.flatnonzero(sharp_ok & (fine >= _arc_filter(fine, arc, span, peak, np.maximum)))
+    stands = fine - _arc_filter(fine, arc, span, 2 * peak, np.minimum) > np.radians(PROMINENCE * corner_angle)
+    sharp = np.flatnonzero(sharp_ok & stands & (fine >= _arc_filter(fine, arc, span, peak, np.maximum)))
     if found.size == 0 or sharp.size == 0:
         return found
     d = np.abs(arc[sharp][:, None] - arc[found][None])
