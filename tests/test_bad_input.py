@@ -652,6 +652,21 @@ def test_a_sliver_is_bad_input(tmp_path, capsys):
     np.testing.assert_allclose(face_aspects(V, np.array([[0, 1, 2]])), [1e8], rtol=1e-6)
 
 
+def test_a_reader_that_closes_stdout_is_no_internal_error(tmp_path, monkeypatch, capsys):
+    """`trispline fit ... --json | head`: the pipe closed under the JSON was "internal error: BrokenPipeError"."""
+    V, F = _random_square(seed=1, n=40)
+    path = tmp_path / "scan.obj"
+    trimesh.Trimesh(V, F, process=False).export(path)
+
+    class Closed(io.StringIO):
+        def write(self, text: str) -> int:
+            raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(sys, "stdout", Closed())
+    rc = main(["info", str(path), "--json"])
+    assert rc == 128 + 13 and capsys.readouterr().err == ""
+
+
 def _random_square(seed: int = 5, n: int = 200) -> tuple[np.ndarray, np.ndarray]:
     """``n`` random points of the unit square and its corners, Delaunay, lifted to a smooth height field."""
     from scipy.spatial import Delaunay
@@ -660,7 +675,7 @@ def _random_square(seed: int = 5, n: int = 200) -> tuple[np.ndarray, np.ndarray]
     return np.c_[P, 0.2 * np.sin(3 * P[:, 0]) * np.cos(2 * P[:, 1])], Delaunay(P).simplices
 
 
-def test_a_triangle_too_thin_for_float64_is_bad_input_naming_it(tmp_path, capsys):
+def test_a_triangle_too_thin_for_float64_is_bad_input_naming_it(tmp_path, capfd):
     """A random point 1.4e-6 from the square's side leaves a triangle of aspect 7e5, below the sliver limit
     (1e6), whose C1 conditions still left the normal matrix indefinite in float64: exit 1, "internal error".
     Now bad input naming the triangle's vertices (a ridge that let it factor gave a surface 25x the scan)."""
@@ -669,7 +684,8 @@ def test_a_triangle_too_thin_for_float64_is_bad_input_naming_it(tmp_path, capsys
     trimesh.Trimesh(V, F, process=False).export(path)
     out = tmp_path / "s.npz"
     out.write_bytes(b"keep me")
-    assert_cli_error(cli(capsys, "fit", path, "-o", out, "--quiet"), "the fit cannot be solved in float64")
+    # capfd: CHOLMOD's own "CHOLMOD warning: not positive definite" went to the process's stdout
+    assert_cli_error(cli(capfd, "fit", path, "-o", out, "--quiet"), "the fit cannot be solved in float64")
     assert out.read_bytes() == b"keep me"
     assert_no_temporaries(tmp_path)
     from trispline.fit import fit_surface

@@ -39,6 +39,8 @@ EXIT_INPUT = 2
 EXIT_CHECK = 3
 EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 128 + 15
+#: stdout closed by its reader (SIGPIPE's conventional status).
+EXIT_BROKEN_PIPE = 128 + 13
 
 
 class Parser(argparse.ArgumentParser):
@@ -393,6 +395,12 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:  # the reader of stdout closed it (`trispline ... --json | head`): no error of ours
+        try:  # nor one at the interpreter's exit, when it flushes stdout
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError, AttributeError):  # a stdout without a file descriptor
+            pass
+        return EXIT_BROKEN_PIPE
     except (InputError, CommandFailed) as exc:
         if debug:
             traceback.print_exc()
