@@ -37,7 +37,7 @@ import lineax as lx
 import numpy as np
 import scipy.sparse as sp
 from trispline.spline.util.memory import available_memory, page_size, thread_page_faults
-from trispline.spline.util.spd import SPD_PARDISO_MIN, point_pypardiso_at_mkl, spd_backend
+from trispline.spline.util.spd import SPD_PARDISO_MIN, c_stdout_silenced, point_pypardiso_at_mkl, spd_backend
 
 from .errors import NotPositiveDefinite, X64Error
 from .limits import refuse_above
@@ -230,12 +230,11 @@ class SparseCholesky:
             L = sp.csr_matrix(U.T)  # cholespy reads the lower triangle of a CSR matrix
             L.sort_indices()
             try:
-                with _output_held() as held:
+                with c_stdout_silenced():  # CHOLMOD prints its own warning to stdout before raising
                     self._solver = cholespy.CholeskySolverD(self.n, L.indptr.astype(np.int32),
                                                             L.indices.astype(np.int32), np.ascontiguousarray(L.data),
                                                             cholespy.MatrixType.CSR)
-                    held.release = True
-            except ValueError as exc:  # "Matrix is not positive definite!" (CHOLMOD's own warning dropped)
+            except ValueError as exc:  # "Matrix is not positive definite!"
                 raise NotPositiveDefinite(f"the normal matrix is not positive definite ({exc})") from exc
         else:
             import scipy.sparse.linalg as spla
@@ -454,35 +453,6 @@ class PatternAnalysis:
                 fac.factorize(span(report, 0.5, 1.0))
                 return fac
         return SparseCholesky(H_upper, upper=True, max_bytes=max_bytes, report=report)
-
-
-class _output_held:
-    """File descriptors 1 and 2 sent to temporary files for the block, and written back after it when
-    ``release`` is set: CHOLMOD prints "CHOLMOD warning: not positive definite" to the process's stdout
-    before cholespy raises, beside the one line a bad input gets
-    (:class:`~trispline.fit.errors.NotPositiveDefinite`) and in the way of ``--json``."""
-
-    def __enter__(self) -> "_output_held":
-        import tempfile
-
-        self.release = False
-        sys.stdout.flush()
-        sys.stderr.flush()
-        self._held = [(fd, os.dup(fd), tempfile.TemporaryFile()) for fd in (1, 2)]
-        for fd, _, file in self._held:
-            os.dup2(file.fileno(), fd)
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        for fd, saved, file in self._held:
-            os.dup2(saved, fd)
-            os.close(saved)
-            if self.release:
-                file.seek(0)
-                text = file.read()
-                if text:
-                    os.write(fd, text)
-            file.close()
 
 
 def _host_solve(handle: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -437,7 +437,8 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
     i, j, on_outline = _neighbour_pairs(F, n)
     outlier_level = np.maximum(level, _ring_level(stud, i, j, n))
     outlier = np.abs(loo) / np.maximum(outlier_level, 1e-300)
-    near_spike = outlier[i] > SPIKE_LEVELS
+    spike = outlier > SPIKE_LEVELS  # ScanAnalysis.spike
+    ring = spike[i]  # the edges from a spike
     noise = MAD_TO_SIGMA * float(np.median(stud))
     points = max(int(curvature_points), MIN_CELL_POINTS)
     for _ in range(2):  # a noisy scan needs larger cells: the noise's share falls like (points per cell)^-3
@@ -461,8 +462,8 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
     scan_spacing = _fill(np.sqrt(np.where(dense, suv / np.maximum(cnt, 1), 0.0)).reshape(coarse.shape),
                          dense.reshape(coarse.shape))
     return ScanAnalysis(residual=np.abs(loo), noise=noise, roughness=np.abs(loo) / np.maximum(level, 1e-300),
-                        outlier=outlier, spike_ring=(i[near_spike], j[near_spike]),
-                        spike_outline=np.flatnonzero(on_outline & (outlier > SPIKE_LEVELS)),
+                        outlier=outlier, spike_ring=(i[ring], j[ring]),
+                        spike_outline=np.flatnonzero(on_outline & spike),
                         smooth=V - r[:, None] * nrm, calm=studc / levelc,
                         cell=_cell_index(uv, coarse.origin, coarse.step, coarse.shape), origin=coarse.origin,
                         step=coarse.step, shape=coarse.shape, curvature=kappa, scale=scale, scan_spacing=scan_spacing,

@@ -25,6 +25,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
+from trispline.param import polygon_area
+
 from .analysis import SPIKE_LEVELS
 from .locate import segment_foot
 
@@ -104,29 +106,24 @@ def _corners(loop: np.ndarray, uv: np.ndarray, V: np.ndarray, spacing: np.ndarra
     seg = np.linalg.norm(np.roll(p, -1, axis=0) - p, axis=1)
     span = float(seg.sum())
     arc = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
-    window = 0.5 * float(np.median(h))  # arc length about a corner that holds no other
+    hm = float(np.median(h))
+    window = 0.5 * hm  # arc length about a corner that holds no other
     corner = t > np.radians(corner_angle)
-    outer = _signed_area(p) > 0  # the domain on the left: the outer loop runs counter-clockwise
+    outer = polygon_area(p) > 0  # the domain on the left: the outer loop runs counter-clockwise
     if outer and window > 0.5 * REACH_SHARE * span:  # a spacing beyond the loop's size: every turn is measured over the same arcs
         window = 0.5 * REACH_SHARE * span
         corner &= t - _arc_filter(t, arc, span, 2 * window, np.minimum) > np.radians(PROMINENCE * corner_angle)
     found = np.flatnonzero(corner & (t >= _arc_filter(t, arc, span, window, np.maximum)))
     share, short = FINE, float(np.percentile(seg, 10))
-    arcs = min(float(np.median(h)), REACH_SHARE * span)  # a merged turn's corners lie within its arcs
-    while outer and share * np.median(h) >= FINEST_STEPS * short:  # ever finer arcs, down to a few short segments
+    arcs = min(hm, REACH_SHARE * span)  # a merged turn's corners lie within its arcs
+    while outer and share * hm >= FINEST_STEPS * short:  # ever finer arcs, down to a few short segments
         fine = _turn(p, share * h)  # in uv: a boundary wavy in 3D has no corners to split out
-        radius = 0.5 * min(share * float(np.median(h)), REACH_SHARE * span)  # half the arcs' length
+        radius = 0.5 * min(share * hm, REACH_SHARE * span)  # half the arcs' length
         found = _split_merged(found, fine, arc, span, arcs, radius, corner_angle)
         share *= FINE
     turn = np.zeros(loop.size)
     turn[keep] = t
     return keep[found], turn
-
-
-def _signed_area(p: np.ndarray) -> float:
-    """Signed area of the closed polygon ``p (L, 2)`` (positive: counter-clockwise)."""
-    q = np.roll(p, -1, axis=0)
-    return 0.5 * float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]))
 
 
 def _arc_filter(values: np.ndarray, arc: np.ndarray, span: float, radius: float, reduce: np.ufunc) -> np.ndarray:

@@ -32,7 +32,6 @@ _MODE_OPTIONS = ("corners", "loss", "strict", "outline_tolerance")
 _USED_WEIGHTS = ("bend", "data")
 
 
-
 def vertex_budget(text: str) -> int:
     """argparse type of ``--vertices``: an integer >= 3 (the fewest a domain has: one triangle)."""
     v = positive_int(text)
@@ -52,6 +51,7 @@ def _advice(st: dict, history: list[dict]) -> str:
         return (f"the fit kept has {st['vertices']} vertices: the rounds up to {most} deviated more, so more "
                 f"vertices alone may not help (try --corners data, another --loss or a larger tolerance)")
     return "raise --vertices or the tolerance"
+
 
 def add_options(p: argparse.ArgumentParser) -> None:
     """The approximation's options on ``fit``'s parser."""

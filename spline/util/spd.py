@@ -20,7 +20,7 @@ from contextlib import contextmanager
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["SPD_BACKENDS", "SPD_PARDISO_MIN", "point_pypardiso_at_mkl", "solve_spd", "spd_backend"]
+__all__ = ["SPD_BACKENDS", "SPD_PARDISO_MIN", "c_stdout_silenced", "point_pypardiso_at_mkl", "solve_spd", "spd_backend"]
 
 #: The backends of :func:`solve_spd`.
 SPD_BACKENDS = ("pardiso", "cholespy")
@@ -93,7 +93,7 @@ def solve_spd(A: sp.spmatrix, b: np.ndarray, *, backend: str | None = None,
     L.sort_indices()
     x = np.zeros_like(b)
     try:
-        with _c_stdout_silenced():  # CHOLMOD prints its own warning to stdout before raising
+        with c_stdout_silenced():  # CHOLMOD prints its own warning to stdout before raising
             cholespy.CholeskySolverD(n, L.indptr.astype(np.int32), L.indices.astype(np.int32),
                                      np.ascontiguousarray(L.data), cholespy.MatrixType.CSR).solve(b, x)
     except ValueError as exc:  # cholespy's "Matrix is not positive definite!"
@@ -108,7 +108,7 @@ _STDOUT_LOCK = threading.Lock()
 
 
 @contextmanager
-def _c_stdout_silenced() -> Iterator[None]:
+def c_stdout_silenced() -> Iterator[None]:
     """File descriptor 1 onto the null device while C code runs (C's buffers flushed on both sides), so
     that a library's ``printf`` cannot add a stray line to the command line's one message."""
     libc = ctypes.CDLL(None)
