@@ -508,6 +508,56 @@ def speed(no_million: bool) -> None:
           "targets (issue 15): 100k faces <= 15 s, 1M <= 90 s and <= 10 GB")
 
 
+# ------------------------------------------------------------------------------------ scattered tiles
+#: Points of the scattered-point tiles (``--scattered``): Delaunay with its hull slivers.
+SCATTERED_POINTS = (10_000, 50_000)
+
+
+def scattered_row(n_points: int, repair: bool) -> dict:
+    """``trispline fit TILE --tolerance-rel 1e-3 [--repair]`` on :func:`~trispline.fit.datasets.tile.scattered_tile`."""
+    import tempfile
+
+    import trimesh
+
+    from trispline.fit.datasets.tile import scattered_tile
+
+    V, F = scattered_tile(n_points, seed=0, origin=(512_300.0, 4_231_800.0))
+    with tempfile.TemporaryDirectory() as tmp:
+        scan, out = Path(tmp) / "tile.obj", Path(tmp) / "s.npz"  # OBJ: every digit (PLY: float32, 0.25 m here)
+        trimesh.Trimesh(V, F, process=False).export(scan)
+        cmd = [sys.executable, "-m", "trispline.fit", "fit", str(scan), "-o", str(out), "--tolerance-rel",
+               str(TOLERANCE_REL), "--json", "--quiet", *(["--repair"] if repair else [])]
+        t0 = time.perf_counter()
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+    if r.returncode != 0:
+        return {"error": (r.stderr.strip().splitlines() or ["?"])[-1][:100]}
+    d = json.loads(r.stdout)
+    return {"faces": int(F.shape[0]), "wall": wall, "verts": d["vertices"], "met": d["met"],
+            "max_tol": d["deviation"]["max"] / d["tolerance"], "rounds": len(d["rounds"])}
+
+
+def scattered() -> None:
+    """Scattered-point tiles (hull slivers along every side) as they come and with ``--repair`` (peeled)."""
+    head = (f"{'tile':<12} {'faces':>8} {'repair':>6} {'wall s':>7} {'verts':>6} {'met':>4} {'max/tol':>8} "
+            f"{'rounds':>6} {'x verts':>8} {'x wall':>7}")
+    print(head)
+    print("-" * len(head))
+    for n in SCATTERED_POINTS:
+        plain = None
+        for repair in (False, True):
+            r = child("scattered_row", n, repair)
+            if "error" in r:
+                print(f"{n:<12} {'':>8} {'yes' if repair else 'no':>6} {r['error']}", flush=True)
+                continue
+            plain = plain or r
+            print(f"{n:<12} {r['faces']:>8} {'yes' if repair else 'no':>6} {r['wall']:>7.1f} {r['verts']:>6} "
+                  f"{'yes' if r['met'] else 'no':>4} {r['max_tol']:>8.2f} {r['rounds']:>6} "
+                  f"{r['verts'] / plain['verts']:>8.2f} {r['wall'] / plain['wall']:>7.2f}", flush=True)
+    print(f"trispline fit TILE -o s.npz --tolerance-rel {TOLERANCE_REL:g} [--repair] on scattered_tile(N, seed=0) "
+          "(start-up included); x: over the same tile without --repair")
+
+
 # ---------------------------------------------------------------------------------------------- zebra
 def zebra(name: str, out: str) -> None:
     """Zebra stripes of a shared real scan: the interpolating fit beside the approximation at
@@ -592,6 +642,7 @@ def main(argv=None) -> int:
                     help="without the interpolating fit (--compactness and the equal-size table)")
     ap.add_argument("--speed", action="store_true", help="trispline fit --tolerance-rel 1e-3 end to end")
     ap.add_argument("--corners", action="store_true", help="the outline's corners at small budgets")
+    ap.add_argument("--scattered", action="store_true", help="scattered-point tiles with and without --repair")
     ap.add_argument("--zebra", metavar="PNG", help="zebra picture of --only's first mesh (default beetle.off): "
                                                   "interpolated beside approximated at 1e-3")
     ap.add_argument("--child", help=argparse.SUPPRESS)
@@ -610,6 +661,8 @@ def main(argv=None) -> int:
         speed(args.no_million)
     elif args.corners:
         corners_table()
+    elif args.scattered:
+        scattered()
     else:
         equal_size(args)
     return 0

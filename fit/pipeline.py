@@ -20,7 +20,7 @@ from typing import Any, Callable
 import numpy as np
 import optimistix as optx
 
-from trispline.param import DEFAULT_METHOD, face_aspects, refuse_slivers
+from trispline.param import DEFAULT_METHOD, face_aspects, hull_sliver_faces, refuse_slivers
 from trispline.spline.checks import as_array
 from trispline.spline.continuity import continuity_report
 from trispline.spline.errors import InputError
@@ -188,7 +188,7 @@ def fit_surface(
         if step is not None:
             step.close()
         if isinstance(exc, NotPositiveDefinite):
-            raise NotPositiveDefinite(_thin_triangles(space.tri.uv, space.tri.faces, str(exc))) from exc
+            raise NotPositiveDefinite(_thin_triangles(space.tri.uv, space.tri.faces, V, str(exc))) from exc
         raise
     clock(FACTOR)
     if step is not None:  # the bar moves as each host solve inside the compiled step ends
@@ -243,12 +243,16 @@ def _finish(V: np.ndarray, space: SplineSpace, prob: en.Problem, x: np.ndarray, 
 THIN_NAMED = 5
 
 
-def _thin_triangles(uv: np.ndarray, faces: np.ndarray, why: str) -> str:
+def _thin_triangles(uv: np.ndarray, faces: np.ndarray, V: np.ndarray, why: str) -> str:
     """The message of a normal matrix float64 cannot factor: the domain's thinnest triangles, whose C1
     conditions span too many orders of magnitude (a point 1.4e-6 from the outline of a unit square: aspect
-    7e5, its diagonal 651 to 5e21). A ridge that let it factor gave a surface 25-250x the scan's size."""
+    7e5, its diagonal 651 to 5e21). A ridge that let it factor gave a surface 25-250x the scan's size.
+    Where one of them is a hull sliver of scattered points (``V (n, 3)``), peeling them is the cure."""
     aspect = face_aspects(uv, faces)
     worst = np.argsort(aspect)[::-1][:THIN_NAMED]
     named = ", ".join(f"{tuple(int(v) for v in faces[f])} {aspect[f]:.3g}" for f in worst)
+    hull = bool(hull_sliver_faces(V, faces)[worst].any())
     return (f"the fit cannot be solved in float64: {why}; the thinnest triangles (vertices, longest edge / height) "
-            f"are {named}: remove or merge them (a vertex almost on an edge), or approximate the scan (--tolerance-rel)")
+            f"are {named}: " + ("hull slivers of scattered points, which repair_mesh (--repair) peels off; or "
+                                if hull else "remove or merge them (a vertex almost on an edge), or ")
+            + "approximate the scan (--tolerance-rel)")

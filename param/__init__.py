@@ -21,6 +21,7 @@ from .distortion import (
 )
 from .domain import UVTransform, normalise, reverse_faces, user_domain
 from .errors import MeshError, MeshWarning, UnreferencedVerticesWarning
+from .hull import hull_sliver_faces
 from .inspect import inspect_mesh
 from .methods import harmonic_uv, slim_uv
 from .parameterize import DEFAULT_METHOD, METHODS, Parameterization, parameterize
@@ -31,7 +32,7 @@ from .validate import ValidatedMesh, face_areas_3d, face_aspects, refuse_slivers
 
 __all__ = [
     "MeshError", "MeshWarning", "UnreferencedVerticesWarning",
-    "ValidatedMesh", "face_areas_3d", "face_aspects", "refuse_slivers", "sliver_message", "validate_mesh", "inspect_mesh", "RepairedMesh", "repair_mesh",
+    "ValidatedMesh", "face_areas_3d", "face_aspects", "hull_sliver_faces", "refuse_slivers", "sliver_message", "validate_mesh", "inspect_mesh", "RepairedMesh", "repair_mesh",
     "DEFAULT_METHOD", "METHODS", "Parameterization", "UVTransform", "parameterize", "harmonic_uv", "slim_uv",
     "user_domain", "reverse_faces", "fill_holes", "fold_mask", "normalise", "repair_folds", "tutte",
     "distortion_report", "face_distortion", "face_jacobians", "summarize", "closest_points",

@@ -18,6 +18,7 @@ import numpy as np
 from trispline.spline.checks import check_ids
 
 from .errors import MeshError
+from .hull import hull_sliver_faces
 from .parameterize import parameterize
 from .repair_mesh import repair_mesh
 from .tables import boundary_loop_count, fan_counts, undirected_edges, vertex_components
@@ -57,7 +58,8 @@ def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False, re
         ``degenerate_faces`` (``repeated_vertex``, ``zero_area``), ``edges``, ``boundary_edges``,
         ``non_manifold_edges``, ``components``, ``euler_characteristic``, ``bowtie_vertices``
         (when no face repeats a vertex), ``manifold``, ``folded_edges`` and ``worst_fold_degrees``
-        (:func:`fold_report`; 0 and None with non-finite vertices); for a manifold mesh ``boundary_loops`` and
+        (:func:`fold_report`; 0 and None with non-finite vertices), ``hull_slivers`` and ``longest_outline_edge``
+        (:func:`hull_report`; likewise); for a manifold mesh ``boundary_loops`` and
         ``closed``, and with one component ``holes`` and ``genus``; last ``validation``:
         ``accepted``, ``problems`` (the :class:`MeshError` kinds), ``message`` (the error's
         text, empty when accepted) and ``repairs`` (what validation changed); after it
@@ -94,6 +96,8 @@ def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False, re
         rep["bowtie_vertices"] = bow
     rep["manifold"] = bool(rep["non_manifold_edges"] == 0 and bow == 0 and not repeated.any())
     rep.update(fold_report(V, F) if finite.all() else dict(folded_edges=0, worst_fold_degrees=None))
+    rep.update(hull_report(V, F) if finite.all() and not repeated.any()
+               else dict(hull_slivers=0, longest_outline_edge=None))
     if rep["manifold"]:
         _loop_counts(rep, edges, count, nv)
     rep["validation"] = _validation(V, F, keep_largest, repair, (param, uv), rep, vertex_ids)
@@ -108,6 +112,18 @@ def fold_report(V: np.ndarray, F: np.ndarray) -> dict[str, Any]:
     _, cos = folded_edges(V, F)
     worst = float(np.degrees(np.arccos(np.clip(cos.min(), -1.0, 1.0)))) if cos.size else None
     return dict(folded_edges=int(cos.size), worst_fold_degrees=worst)
+
+
+def hull_report(V: np.ndarray, F: np.ndarray) -> dict[str, Any]:
+    """``hull_slivers``: the faces :func:`~trispline.param.hull.hull_sliver_faces` would peel off the
+    outline (the hull of a triangulation of scattered points), and ``longest_outline_edge``: the longest
+    outline edge over the median edge of the mesh (None without an outline)."""
+    he, _, he_edge, count = undirected_edges(F, V.shape[0])
+    length = np.linalg.norm(V[he[:, 0]] - V[he[:, 1]], axis=1)
+    rim = count[he_edge] == 1
+    median = float(np.median(length)) if length.size else 0.0
+    longest = float(length[rim].max() / median) if rim.any() and median > 0 else None
+    return dict(hull_slivers=int(hull_sliver_faces(V, F).sum()), longest_outline_edge=longest)
 
 
 def _loop_counts(rep: dict[str, Any], edges: np.ndarray, count: np.ndarray, nv: int) -> None:

@@ -10,11 +10,12 @@ area (:func:`~trispline.param.validate.zero_area_faces`) or the vertex set of an
 face are dropped; every edge keeps at most two faces (the first, and the first after it
 that runs the edge the other way, else the next one); then every vertex is split into one
 copy per fan of faces that the kept edges join, which separates bowtie vertices and cuts
-fins off along their non-manifold edge; then folded flaps are cut off (faces across an edge
-whose normals point apart: the side that disagrees with the faces around it goes), where the
-cut leaves fans meeting at a vertex only the largest stays, and what is still non-manifold is
-split again; last, only the largest
-connected component (by faces) is kept. Orientation is left to :func:`validate_mesh`, which repairs it.
+fins off along their non-manifold edge; then the hull slivers of a triangulation of scattered
+points are peeled off the outline (:func:`~trispline.param.hull.hull_sliver_faces`); then folded
+flaps are cut off (faces across an edge whose normals point apart: the side that disagrees with
+the faces around it goes), where the cut leaves fans meeting at a vertex only the largest stays,
+and what is still non-manifold is split again; last, only the largest connected component (by
+faces) is kept. Orientation is left to :func:`validate_mesh`, which repairs it.
 """
 from __future__ import annotations
 
@@ -26,6 +27,7 @@ from trispline.spline.checks import check_ids
 from trispline.spline.topology import outline_vertex_mask
 
 from .errors import MeshError
+from .hull import hull_sliver_faces
 from .tables import corner_fans, edge_pairs, orientation_classes, undirected_edges, vertex_components
 from .validate import as_mesh_arrays, folded_edges, repeated_vertex_faces, zero_area_faces
 
@@ -52,8 +54,9 @@ class RepairedMesh:
         Input face of each output face (the kept faces, in input order).
     changes : dict of str -> int
         ``non_finite_faces``, ``repeated_vertex_faces``, ``zero_area_faces``,
-        ``duplicate_faces``, ``non_manifold_edges``, ``folded_flap_faces``, ``pinched_fan_faces``, ``split_vertices`` (input vertices that
-        became several), ``added_vertices``, ``dropped_components``, ``dropped_component_faces``,
+        ``duplicate_faces``, ``non_manifold_edges``, ``hull_sliver_faces``, ``folded_flap_faces``,
+        ``pinched_fan_faces``, ``split_vertices`` (input vertices that became several), ``added_vertices``,
+        ``dropped_components``, ``dropped_component_faces``,
         ``dropped_vertices`` (input vertices in no output face).
     messages : list of str
         The non-zero changes in words.
@@ -257,6 +260,7 @@ _WORDS = {
     "zero_area_faces": "dropped {} zero-area faces",
     "duplicate_faces": "dropped {} duplicate faces (same three vertices as an earlier face)",
     "non_manifold_edges": "cut {} non-manifold edges down to two faces each",
+    "hull_sliver_faces": "peeled {} hull slivers off the outline (long thin faces along the convex hull of scattered points)",
     "folded_flap_faces": "cut off {} faces of folded flaps (adjacent faces whose normals point apart)",
     "pinched_fan_faces": "dropped {} faces of the smaller fans where one piece of the surface met itself at a vertex",
     "split_vertices": "split {} bowtie or non-manifold vertices into one copy per fan of faces ({} added)",
@@ -304,8 +308,13 @@ def repair_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = True) -> R
         raise MeshError(f"repair left no faces ({', '.join(f'{k} {v}' for k, v in changes.items() if v)})",
                         ["empty"])
     Fw, source, changes["non_manifold_edges"] = _manifold(F[faces], np.arange(nv))
-    flaps = _cut_flaps(V[source], Fw)
-    changes["folded_flap_faces"] = int(Fw.shape[0] - flaps.size)
+    hull = np.flatnonzero(~hull_sliver_faces(V[source], Fw))
+    changes["hull_sliver_faces"] = int(Fw.shape[0] - hull.size)
+    flaps = hull[_cut_flaps(V[source], Fw[hull])]
+    changes["folded_flap_faces"] = int(hull.size - flaps.size)
+    hidden = flaps.size
+    flaps = flaps[~hull_sliver_faces(V[source], Fw[flaps])]  # those the cut flaps had hidden
+    changes["hull_sliver_faces"] += int(hidden - flaps.size)
     if not flaps.size:
         raise MeshError("repair left no faces (every face was on a folded flap)", ["empty"])
     kept = flaps[_drop_pinches(Fw[flaps], source)]

@@ -678,14 +678,19 @@ def _random_square(seed: int = 5, n: int = 200) -> tuple[np.ndarray, np.ndarray]
 def test_a_triangle_too_thin_for_float64_is_bad_input_naming_it(tmp_path, capfd):
     """A random point 1.4e-6 from the square's side leaves a triangle of aspect 7e5, below the sliver limit
     (1e6), whose C1 conditions still left the normal matrix indefinite in float64: exit 1, "internal error".
-    Now bad input naming the triangle's vertices (a ridge that let it factor gave a surface 25x the scan)."""
+    Now bad input naming the triangle's vertices (a ridge that let it factor gave a surface 25x the scan);
+    it is a hull sliver, which --repair peels (then the fit succeeds)."""
     V, F = _random_square()
     path = tmp_path / "scan.obj"
     trimesh.Trimesh(V, F, process=False).export(path)
     out = tmp_path / "s.npz"
     out.write_bytes(b"keep me")
     # capfd: CHOLMOD's own "CHOLMOD warning: not positive definite" went to the process's stdout
-    assert_cli_error(cli(capfd, "fit", path, "-o", out, "--quiet"), "the fit cannot be solved in float64")
+    r = cli(capfd, "fit", path, "-o", out, "--quiet")
+    warning, error = r.err.strip().splitlines()  # random points of a square: hull slivers, said before the work
+    assert warning.startswith("trispline: warning: the outline runs along") and "hull slivers" in warning
+    assert_cli_error(Result(r.rc, r.out, error), "the fit cannot be solved in float64")
+    assert "hull slivers of scattered points, which repair_mesh (--repair) peels off" in error
     assert out.read_bytes() == b"keep me"
     assert_no_temporaries(tmp_path)
     from trispline.fit import fit_surface
@@ -693,6 +698,8 @@ def test_a_triangle_too_thin_for_float64_is_bad_input_naming_it(tmp_path, capfd)
 
     with pytest.raises(NotPositiveDefinite, match=r"\(102, 202, 200\) 7\.3e\+05"):
         fit_surface(V, F)  # (over the true uv it factors)
+    assert cli(capfd, "fit", path, "-o", out, "--quiet", "--repair").rc == 0  # the slivers peeled, it fits
+    assert out.read_bytes()[:2] == b"PK"
 
 
 @pytest.mark.parametrize("mode, match", [((), "lscm map of this mesh is undefined"),

@@ -31,11 +31,12 @@ import scipy.sparse as sp
 from trispline.param import DEFAULT_METHOD, face_areas_3d
 from trispline.spline.checks import as_array
 from trispline.spline.continuity import continuity_report
-from trispline.spline.errors import InputError
+from trispline.spline.errors import InputError, first_few
 from trispline.spline.index import CORNER
 from trispline.spline.polynomial import Polynomial
 from trispline.spline.surface import SplineSurface
 from trispline.spline.tolerances import MIN_RELATIVE_AREA_3D
+from trispline.spline.topology import Triangulation
 from trispline.spline.util.timer import StageTimer
 
 from ..energy.robust import LOSSES, TUNING, inlier_weight
@@ -46,6 +47,7 @@ from .deviation import Deviation, summary
 from .domain import DEFAULT_FRACTION, BoundaryBudgetError, CoarseDomain, coarse_domain, insert
 from .fit import (APPROX_WEIGHTS, corrected_location, cross_validated_weight, fit_domain, quadric_reference,
                   scan_location)
+from .holes import folded_holes, span_holes
 from .problem import CORNER_MODES
 from .refine import Round, measure, outline_gaps, pick_vertices
 
@@ -268,22 +270,43 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray
     noisy scan the repair can take minutes and distorts the whole map): the harmonic map of the
     same smoothed scan replaces it. The map must be one-to-one (``embedded``: the coarse domain is a
     triangulation of the region it covers); one that covers part of the plane twice is replaced too.
+    Holes the map folds shut (:func:`~.holes.folded_holes`: far narrower than their vertices' spacing)
+    are spanned by faces and the map made again: the returned ``faces`` hold those faces too.
     """
-    from trispline.param import MeshError, parameterize
+    from trispline.param import parameterize
 
     if uv is not None or param == "uv":
         uv = None if uv is None else as_array(uv, "uv", (V.shape[0], 2), finite=True)
         p = parameterize(V, F, method="uv", uv=uv, embedded=True)
         return p.uv, p.faces, p
     X = _smoothed(V, F)
+    p = _free_map(X, F, param)
+    shut = folded_holes(p.uv, p.faces, Triangulation(p.uv, p.faces).boundary_loops)
+    if shut:  # spanned, and the map made again over them
+        messages, method = p.messages, p.method
+        p = _free_map(X, span_holes(p.faces, shut), param)
+        left = folded_holes(p.uv, p.faces, Triangulation(p.uv, p.faces).boundary_loops)
+        if left:
+            raise InputError(f"the {p.method} map folds {len(left)} holes of the scan shut even after spanning "
+                             f"{len(shut)} (first at scan vertices {first_few(left[0])}); fill them first")
+        sizes = ", ".join(str(h.size) for h in shut[:5]) + (", ..." if len(shut) > 5 else "")
+        p.messages[:0] = [*messages, f"spanned {len(shut)} holes of the scan ({sizes} vertices around) that the "
+                          f"{method} map folded shut: each is far narrower than its vertices' spacing"]
+    return p.uv, p.faces, p
+
+
+def _free_map(X: np.ndarray, F: np.ndarray, param: str):
+    """The ``param`` map of the smoothed scan ``X``, one-to-one; a folded LSCM map replaced by the harmonic one."""
+    from trispline.param import MeshError, parameterize
+
     try:
-        p = parameterize(X, F, method=param, repair=param != "lscm", embedded=True)
+        return parameterize(X, F, method=param, repair=param != "lscm", embedded=True)
     except MeshError as exc:
         if "folded" not in exc.kinds:
             raise
         p = parameterize(X, F, method="harmonic", embedded=True)
         p.messages.append(f"{str(exc).splitlines()[0].split(':')[0]}; the harmonic map is used instead")
-    return p.uv, p.faces, p
+        return p
 
 
 def _user_net(p, dom: CoarseDomain, space, ctrl: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

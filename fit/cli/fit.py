@@ -113,7 +113,8 @@ def _add_fit_options(p: argparse.ArgumentParser, outputs: bool = True) -> None:
                         "(vertices are renumbered; the surface file records the input index; default: off)")
     p.add_argument("--repair", action="store_true",
                    help="repair the mesh first: split bowtie vertices, cut non-manifold edges, drop zero-area and "
-                        "duplicate faces, cut folded flaps, keep the largest component; says what changed, and the surface file's "
+                        "duplicate faces, peel hull slivers off the outline (scattered points triangulated), cut folded "
+                        "flaps, keep the largest component; says what changed, and the surface file's "
                         "source_vertex_index maps its vertices to the input's (default: off)")
     p.add_argument("--max-steps", type=positive_int, default=50, metavar="N",
                    help="Gauss-Newton step limit; the default quadratic energy needs 1 (default 50)")
@@ -315,6 +316,8 @@ def _load_input(args: argparse.Namespace, ui: UI) -> _Input:
     # an approximating fit need not pass the folds
     if repair is None and not approximate.requested(args):
         _warn_folds(ui, vm.V, vm.F)
+    if repair is None:
+        _warn_hull(ui, vm.V, vm.F)
     if vm.kept is not None:
         V, F = vm.V, vm.F
         kept = vm.kept if kept is None else kept[vm.kept]
@@ -378,6 +381,18 @@ def _warn_folds(ui: UI, V: np.ndarray, F: np.ndarray) -> None:
         ui.warn(f"the mesh folds over at {folds['folded_edges']} edges (adjacent faces up to "
                 f"{folds['worst_fold_degrees']:.0f} degrees apart): the surface may spike there; use --repair "
                 "to cut folded flaps")
+
+
+def _warn_hull(ui: UI, V: np.ndarray, F: np.ndarray) -> None:
+    """One line before the work when the outline is closed off by hull slivers (scattered points triangulated)."""
+    from trispline.param.inspect import hull_report
+
+    hull = hull_report(V, F)
+    if hull["hull_slivers"]:
+        ui.warn(f"the outline runs along {hull['hull_slivers']} hull slivers (long thin faces; its longest edge is "
+                f"{hull['longest_outline_edge']:.0f} times the median edge), as a triangulation of scattered points "
+                "makes along their convex hull: the map distorts there and an approximation cannot place vertices "
+                "along those edges; use --repair to peel them off")
 
 
 def _warn_far_from_origin(ui: UI, V: np.ndarray) -> None:

@@ -28,7 +28,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--keep-largest", action="store_true", help="judge as fit --keep-largest would")
     p.add_argument("--repair", action="store_true",
                    help="judge the mesh repair makes of it (bowties split, non-manifold edges cut, zero-area "
-                        "and duplicate faces dropped, folded flaps cut, largest component kept), as fit "
+                        "and duplicate faces dropped, hull slivers peeled, folded flaps cut, largest component kept), as fit "
                         "--repair would")
     p.add_argument("--param", choices=METHODS, default=DEFAULT_METHOD,
                    help=f"parameterization whose distortion is reported (default {DEFAULT_METHOD}; uv: the "
@@ -72,6 +72,9 @@ def _info_text(d: dict) -> str:
         f"  folded edges (adjacent faces more than 90 degrees apart) {d['folded_edges']}"
         + (f", worst {d['worst_fold_degrees']:.0f} degrees (fit --repair cuts folded flaps)"
            if d["folded_edges"] else ""),
+        f"  hull slivers on the outline {d['hull_slivers']}"
+        + (f", longest outline edge {d['longest_outline_edge']:.3g} x the median edge (fit --repair peels them)"
+           if d["hull_slivers"] else ""),
     ]
     f = d["fit"]
     if f.get("mesh_repair", {}).get("messages"):

@@ -1,0 +1,53 @@
+"""Holes of a scan that its map folds shut: found in uv and spanned by faces before the approximation.
+
+A hole only a sliver wide (a folded flap that ``--repair`` cut out of a noisy scattered-point scan, a
+crack between two scan passes) may come out of a free-boundary map with almost no area, or turned
+inside out: no triangle of the map folds, but the hole's loop runs counter-clockwise or crosses itself.
+The coarse domain's constrained triangulation cannot keep such a hole (it fills it, and the domain
+has fewer loops than the scan). An approximation has no reason to: the hole is far narrower than the
+spacing of its vertices. :func:`folded_holes` finds them (a loop whose signed uv area is above
+``-SPAN_HOLE_AREA`` times the area of a median triangle per vertex of the loop), and
+:func:`span_holes` closes each by a fan of faces over its own vertices (no vertex is added, no edge
+doubled), so that the map made again covers them.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from trispline.param import polygon_area
+from trispline.spline.topology import signed_areas
+
+__all__ = ["SPAN_HOLE_AREA", "folded_holes", "span_holes"]
+
+#: A hole whose signed uv area (clockwise: negative) is above ``-SPAN_HOLE_AREA`` times the median uv
+#: face area per vertex of its loop is folded shut: a hundredth of a triangle per vertex.
+SPAN_HOLE_AREA = 0.01
+
+
+def folded_holes(uv: np.ndarray, faces: np.ndarray, loops: list[np.ndarray]) -> list[np.ndarray]:
+    """The loops of ``loops`` (the outer loop first, then the holes, surface on the left) whose hole
+    the map ``uv (n, 2)``, ``faces (m, 3)`` folds shut (see the module docstring)."""
+    unit = float(np.median(np.abs(signed_areas(uv, faces))))
+    return [h for h in loops[1:] if polygon_area(uv[h]) > -SPAN_HOLE_AREA * unit * h.size]
+
+
+def span_holes(F: np.ndarray, holes: list[np.ndarray]) -> np.ndarray:
+    """``(m + sum(k - 2), 3)``: ``F`` and a fan of faces over each hole loop ``(k,)``, oriented as the faces
+    beside it (the loop has the surface on its left: each face runs it backwards).
+
+    The fan's apex is the first vertex of the loop whose diagonals are no edge of ``F`` already (an edge
+    of three faces is no surface); a hole that has no such vertex is left open.
+    """
+    F = np.asarray(F, np.int64)
+    n = int(F.max()) + 1 if F.size else 0
+    edges = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    existing = np.unique(edges[:, 0] * n + edges[:, 1])
+    fans = []
+    for hole in holes:
+        for r in range(hole.size):
+            h = np.roll(hole, -r)
+            diagonal = np.sort(np.column_stack([np.full(h.size - 3, h[0]), h[2:-1]]), axis=1)
+            if not np.isin(diagonal[:, 0] * n + diagonal[:, 1], existing).any():
+                fans.append(np.column_stack([np.full(h.size - 2, h[0]), h[2:], h[1:-1]]))
+                break
+    return np.concatenate([F, *fans]) if fans else F
