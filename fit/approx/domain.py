@@ -83,7 +83,7 @@ from .cdt import constrained, hole_seeds, loop_segments, quality_mesh
 from .locate import ClampedLocator, Located
 from .quality import REPAIR_ROUNDS, better_vertices, face_angles
 
-__all__ = ["BoundaryBudgetError", "CoarseDomain", "DomainStats", "coarse_domain", "coarse_index", "insert", "separation", "ADAPT",
+__all__ = ["BoundaryBudgetError", "CoarseDomain", "LostHolesError", "DomainStats", "coarse_domain", "coarse_index", "insert", "separation", "ADAPT",
            "DEFAULT_FRACTION",
            "MIN_SEPARATION"]
 
@@ -302,6 +302,15 @@ class BoundaryBudgetError(InputError):
         self.budget, self.needed = budget, needed
 
 
+class LostHolesError(InputError):
+    """The coarse domain's constrained triangulation filled holes of the scan; ``lost``: those loops (scan
+    ids, the surface on the left), for a caller that can span them (:mod:`.holes`)."""
+
+    def __init__(self, message: str, lost: list[np.ndarray]) -> None:
+        super().__init__(message)
+        self.lost = lost
+
+
 class _ScanIndex:
     """A KD-tree over the scan's uv, for snapping Triangle's points to scan vertices."""
 
@@ -483,8 +492,11 @@ def _domain(scan_uv: np.ndarray, boundary: list[np.ndarray], interior: np.ndarra
         raise InputError(f"the coarse domain on {ids.size} scan vertices is not a valid triangulation ({exc}); "
                          "the vertex budget may be too small for the scan's outline and holes") from None
     if len(tri.boundary_loops) != len(loops):
-        raise InputError(f"the coarse domain on {ids.size} scan vertices has {len(tri.boundary_loops)} boundary "
-                         f"loops, the scan {len(loops)}; the vertex budget may be too small for its outline and holes")
+        kept = {frozenset(ids[c].tolist()) for c in tri.boundary_loops}
+        lost = [loop for loop, b in zip(loops, boundary) if frozenset(b.tolist()) not in kept]
+        raise LostHolesError(f"the coarse domain on {ids.size} scan vertices has {len(tri.boundary_loops)} boundary "
+                             f"loops, the scan {len(loops)}; the vertex budget may be too small for its outline and "
+                             "holes", lost)
     aspect = face_aspects(uv, faces)
     if not aspect.max() <= MAX_DOMAIN_ASPECT:  # the scan's map is nearly degenerate: no fit is defined on it
         raise InputError(f"the scan's parameterization is too thin for a coarse domain: its triangles over {ids.size} "

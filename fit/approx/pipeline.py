@@ -44,7 +44,7 @@ from ..solve import require_x64
 from ..weights import FitWeights
 from .analysis import SPIKE_LEVELS
 from .deviation import Deviation, summary
-from .domain import DEFAULT_FRACTION, BoundaryBudgetError, CoarseDomain, coarse_domain, insert
+from .domain import DEFAULT_FRACTION, BoundaryBudgetError, CoarseDomain, LostHolesError, coarse_domain, insert
 from .fit import (APPROX_WEIGHTS, corrected_location, cross_validated_weight, fit_domain, quadric_reference,
                   scan_location)
 from .holes import folded_holes, span_holes
@@ -261,7 +261,8 @@ def _smoothed(V: np.ndarray, F: np.ndarray, steps: int = PARAM_SMOOTHING) -> np.
     return X
 
 
-def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray, np.ndarray, Any]:
+def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str, span: list[np.ndarray] = ()
+               ) -> tuple[np.ndarray, np.ndarray, Any]:
     """``(uv (n, 2) normalised, faces (m, 3) counter-clockwise, parameterization)``.
 
     Given ``uv`` (or ``param="uv"``: ``V[:, :2]``) is normalised by ``parameterize(method="uv")``
@@ -270,8 +271,9 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray
     noisy scan the repair can take minutes and distorts the whole map): the harmonic map of the
     same smoothed scan replaces it. The map must be one-to-one (``embedded``: the coarse domain is a
     triangulation of the region it covers); one that covers part of the plane twice is replaced too.
-    Holes the map folds shut (:func:`~.holes.folded_holes`: far narrower than their vertices' spacing)
-    are spanned by faces and the map made again: the returned ``faces`` hold those faces too.
+    Holes the map turns inside out (:func:`~.holes.folded_holes`), and the loops ``span`` (holes a coarse
+    domain lost: :class:`~.domain.LostHolesError`), are spanned by faces and the map made again: the
+    returned ``faces`` hold those faces too.
     """
     from trispline.param import parameterize
 
@@ -281,7 +283,7 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray
         return p.uv, p.faces, p
     X = _smoothed(V, F)
     p = _free_map(X, F, param)
-    shut = folded_holes(p.uv, p.faces, Triangulation(p.uv, p.faces).boundary_loops)
+    shut = folded_holes(p.uv, p.faces, Triangulation(p.uv, p.faces).boundary_loops) + list(span)
     if shut:  # spanned, and the map made again over them
         messages, method = p.messages, p.method
         p = _free_map(X, span_holes(p.faces, shut), param)
@@ -291,7 +293,7 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str) -> tuple[np.ndarray
                              f"{len(shut)} (first at scan vertices {first_few(left[0])}); fill them first")
         sizes = ", ".join(str(h.size) for h in shut[:5]) + (", ..." if len(shut) > 5 else "")
         p.messages[:0] = [*messages, f"spanned {len(shut)} holes of the scan ({sizes} vertices around) that the "
-                          f"{method} map folded shut: each is far narrower than its vertices' spacing"]
+                          f"{method} map squeezed shut: each is far narrower than its vertices' spacing"]
     return p.uv, p.faces, p
 
 
@@ -319,6 +321,18 @@ def _user_net(p, dom: CoarseDomain, space, ctrl: np.ndarray) -> tuple[np.ndarray
         return space.tri.uv, dom.faces, ctrl
     coarse = dataclasses.replace(p, uv=dom.uv, faces=dom.faces, source_uv=p.source_uv[dom.vertices])
     return user_domain(coarse, ctrl, space.tri.uv)
+
+
+def _budgeted_domain(V: np.ndarray, faces: np.ndarray, uv: np.ndarray, opt: "_Options", max_rounds: int
+                     ) -> tuple[CoarseDomain, "_Options"]:
+    """:func:`_first_domain`; where the default budget is below what the outline needs, with that need on top."""
+    try:
+        return _first_domain(V, faces, uv, opt, max_rounds), opt
+    except BoundaryBudgetError as exc:
+        if opt.budget_given or opt.budget >= V.shape[0]:
+            raise
+        opt = dataclasses.replace(opt, budget=min(V.shape[0], exc.needed + opt.budget))
+        return _first_domain(V, faces, uv, opt, max_rounds), opt
 
 
 def _first_domain(V: np.ndarray, F: np.ndarray, uv: np.ndarray, opt: _Options, rounds: int) -> CoarseDomain:
@@ -401,12 +415,12 @@ def approximate_surface(
     opt = dataclasses.replace(opt, warp=parameterization.method != "uv")
     stage("parameterize")
     try:
-        dom = _first_domain(V, faces, uv, opt, max_rounds)
-    except BoundaryBudgetError as exc:  # the default budget: the outline's need on top of it
-        if opt.budget_given or opt.budget >= V.shape[0]:
+        dom, opt = _budgeted_domain(V, faces, uv, opt, max_rounds)
+    except LostHolesError as exc:  # holes the map squeezed shut: spanned, and the map made again
+        if parameterization.method == "uv":
             raise
-        opt = dataclasses.replace(opt, budget=min(V.shape[0], exc.needed + opt.budget))
-        dom = _first_domain(V, faces, uv, opt, max_rounds)
+        uv, faces, parameterization = _domain_uv(V, F, None, param, span=exc.lost)
+        dom, opt = _budgeted_domain(V, faces, uv, opt, max_rounds)
     opt = dataclasses.replace(opt, reference=quadric_reference(dom, V))
     stage("domain")
     if opt.auto:

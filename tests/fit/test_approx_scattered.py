@@ -33,7 +33,7 @@ def sliver_hole(width: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_a_hole_folded_shut_is_found_and_a_proper_one_is_not():
-    """Half a face, clockwise: a hole. The same inside out, or a hundredth as wide: folded shut."""
+    """Half a face, clockwise: a hole. The same inside out, or a thousandth as wide: folded shut."""
     P, F = grid()
     n = P.shape[0]
     square = np.array([[0, 0], [0, 1], [1, 1], [1, 0]], float) * 0.5 / 29  # clockwise, half a face
@@ -81,6 +81,32 @@ def test_a_hole_far_narrower_than_a_face_is_spanned_and_the_tolerance_met(width)
     spanned = [m for m in r.parameterization.messages if m.startswith("spanned 1 holes of the scan (3 vertices")]
     assert bool(spanned) == (width < SPAN_HOLE_AREA)
     assert len(Triangulation(r.domain.uv, r.domain.faces).boundary_loops) == (1 if spanned else 2)
+
+
+def test_a_hole_the_coarse_domain_loses_is_spanned_and_the_domain_made_again(monkeypatch):
+    """The coarse domain's triangulation filled a 4-vertex hole squeezed to 0.007 of a face (a --repair'ed
+    scattered tile): the pipeline spans exactly the holes it names and makes map and domain again."""
+    from trispline.fit.approx import pipeline
+    from trispline.fit.approx.domain import LostHolesError
+
+    V, F = sliver_hole(0.3)  # a hole the map keeps open: the domain is made to lose it once
+    first = pipeline._first_domain
+    calls = []
+
+    def losing(V_, faces, uv, opt, max_rounds):
+        calls.append(faces.shape[0])
+        if len(calls) == 1:
+            loops = Triangulation(uv, faces).boundary_loops
+            raise LostHolesError("the coarse domain ... has 1 boundary loops, the scan 2", [loops[1]])
+        return first(V_, faces, uv, opt, max_rounds)
+
+    monkeypatch.setattr(pipeline, "_first_domain", losing)
+    r = approximate_surface(V, F, tolerance_rel=1e-3)
+    assert calls == [F.shape[0], F.shape[0] + 1] and r.stats["met"]  # the 3-vertex hole: one face more
+    assert r.parameterization.messages[0].startswith("spanned 1 holes of the scan (3 vertices")
+    with pytest.raises(LostHolesError):  # given uv cannot be made again: the error stands
+        calls.clear()
+        approximate_surface(V, F, tolerance_rel=1e-3, uv=V[:, :2])
 
 
 def test_a_peeled_scattered_tile_meets_the_tolerance_with_fewer_vertices():
