@@ -7,9 +7,9 @@ Along a loop (scan vertex ids, the domain on the left) the kept vertices are:
 1. **corners**: where the outline turns by more than ``corner_angle``, measured in
    uv and in 3D between the directions of the arcs one local spacing behind and
    ahead (each between the centroids of its halves, so a jagged scan edge does
-   not count as a corner), in 3D with the spikes (roughness above
-   :data:`~.analysis.SPIKE_LEVELS`) put on the chords of their neighbours, the
-   largest turn within half a spacing;
+   not count as a corner), on the loop without its spikes (roughness above
+   :data:`~.analysis.SPIKE_LEVELS`: never a corner), the largest turn within
+   half a spacing;
 2. **spacing**: between consecutive corners, vertices about one local spacing
    apart (the spacing field in uv, integrated along the loop), each nudged to
    the neighbour with the smallest roughness (a spike always; the others where
@@ -89,13 +89,8 @@ def _turn(p: np.ndarray, reach: np.ndarray) -> np.ndarray:
 
 def _corners(loop: np.ndarray, uv: np.ndarray, V: np.ndarray, spacing: np.ndarray, scale: np.ndarray,
              smooth: np.ndarray, corner_angle: float) -> tuple[np.ndarray, np.ndarray]:
-    """Positions in the loop of its corners (sorted), and the turn at every loop vertex. On the outer loop
-    the turn is measured in 3D with the spikes (``smooth (L,)`` False) on the chords of their smooth
-    neighbours (:func:`_despiked`), in uv as they are: the map was made of the despiked scan, and a
-    leave-one-out quadric extrapolates to a corner of the outline, so the corner of a scattered-point
-    tile was flagged a spike and lost (its vertex then 10 m off, 7x the tolerance). A hole's turn is
-    measured on the loop without its spikes, which get turn 0 (with them, halftunnel's faceted holes
-    kept other corners and its tolerance was no longer met within its budget).
+    """Positions in the loop of its corners (sorted), and the turn at every loop vertex; the turn is
+    measured on the loop without its spikes (``smooth (L,)`` False), which get turn 0.
 
     A corner is a turn above ``corner_angle`` that is the largest within half the spacing along the loop;
     on the outer loop, where the spacing reaches past the turn's arcs (:data:`REACH_SHARE`), within a tenth
@@ -105,16 +100,16 @@ def _corners(loop: np.ndarray, uv: np.ndarray, V: np.ndarray, spacing: np.ndarra
     on the outer loop, the uv turn over ever shorter arcs splits a corner that merged two, and moves one that
     peaked beside a sharp turn onto it (:func:`_split_merged`; on a small round hole, jagged at the scan's
     spacing, it found up to 9 corners and a coarse face reached over the hole)."""
-    outer = polygon_area(uv[loop]) > 0  # the domain on the left: the outer loop runs counter-clockwise
-    keep = np.arange(loop.size) if outer or smooth.sum() < 3 else np.flatnonzero(smooth)
+    keep = np.flatnonzero(smooth) if smooth.sum() >= 3 else np.arange(loop.size)
     p, x, h = uv[loop[keep]], V[loop[keep]], spacing[keep]
-    t = np.maximum(_turn(p, h), _turn(_despiked(x, p, smooth) if outer else x, h * scale[keep]))
+    t = np.maximum(_turn(p, h), _turn(x, h * scale[keep]))
     seg = np.linalg.norm(np.roll(p, -1, axis=0) - p, axis=1)
     span = float(seg.sum())
     arc = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
     hm = float(np.median(h))
     window = 0.5 * hm  # arc length about a corner that holds no other
     corner = t > np.radians(corner_angle)
+    outer = polygon_area(p) > 0  # the domain on the left: the outer loop runs counter-clockwise
     if outer and window > 0.5 * REACH_SHARE * span:  # a spacing beyond the loop's size: every turn is measured over the same arcs
         window = 0.5 * REACH_SHARE * span
         corner &= t - _arc_filter(t, arc, span, 2 * window, np.minimum) > np.radians(PROMINENCE * corner_angle)
@@ -129,24 +124,6 @@ def _corners(loop: np.ndarray, uv: np.ndarray, V: np.ndarray, spacing: np.ndarra
     turn = np.zeros(loop.size)
     turn[keep] = t
     return keep[found], turn
-
-
-def _despiked(x: np.ndarray, p: np.ndarray, smooth: np.ndarray) -> np.ndarray:
-    """``x (L, 3)``, a closed loop's 3D points, with its spikes (``smooth (L,)`` False) put on the chord of
-    their nearest smooth neighbours along the loop, by uv arc length ``p (L, 2)``: a spike turns no corner
-    in 3D, yet it stays in the loop, where its uv turn counts (the map is made of the despiked scan)."""
-    ok = np.flatnonzero(smooth)
-    if ok.size < 3 or ok.size == smooth.size:
-        return x
-    seg = np.linalg.norm(np.roll(p, -1, axis=0) - p, axis=1)
-    arc = np.concatenate([[0.0], np.cumsum(seg)])
-    span, at = arc[-1], arc[:-1]
-    ring = np.concatenate([at[ok] - span, at[ok], at[ok] + span])  # the smooth ones, a lap either side
-    out = x.copy()
-    bad = np.flatnonzero(~smooth)
-    for d in range(x.shape[1]):
-        out[bad, d] = np.interp(at[bad], ring, np.tile(x[ok, d], 3))
-    return out
 
 
 def _arc_filter(values: np.ndarray, arc: np.ndarray, span: float, radius: float, reduce: np.ufunc) -> np.ndarray:

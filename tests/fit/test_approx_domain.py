@@ -165,23 +165,6 @@ def test_concave_corners_of_an_l_shape_survive():
     assert set(ids) <= set(dom.corners)
 
 
-def test_a_corner_flagged_a_spike_stays_a_corner():
-    """A convex corner's leave-one-out quadric extrapolates, so the scan analysis may flag it a spike.
-    It used to turn 0, the corner went to a neighbour and the chord cut it off (a scattered-point tile's
-    corner vertex 10 m off its surface, 7x the tolerance)."""
-    from trispline.fit.approx.analysis import SPIKE_LEVELS
-    from trispline.fit.approx.boundary import thin_loop
-
-    uv, F = domains.grid(20)
-    V = lift(uv)
-    loop = Triangulation(uv, F).boundary_loops[0]
-    corner = loop[np.argmin(np.linalg.norm(uv[loop] - [1.0, 1.0], axis=1))]
-    roughness = np.zeros(uv.shape[0])
-    roughness[corner] = 10 * SPIKE_LEVELS
-    kept, corners = thin_loop(loop, uv, V, np.full(loop.size, 0.2), np.ones(loop.size), roughness)
-    assert corner in corners and corner in kept and corners.size == 4
-
-
 def test_vertices_avoid_noise_spikes():
     scan = truth_scan("bumps", 50_000, sigma=1e-3, outliers=0.005, seed=0)
     dom = coarse_domain(scan.V, scan.F, scan.params, n_vertices=1000)
