@@ -44,8 +44,12 @@ def vertex_budget(text: str) -> int:
 STALLED_SHARE = 0.8
 
 
-def _advice(st: dict, history: list[dict]) -> str:
-    """What to try where the tolerance was not met: more vertices, unless rounds with more did not help."""
+def _advice(st: dict, history: list[dict], hull_slivers: int = 0) -> str:
+    """What to try where the tolerance was not met: peel the outline's hull slivers where it has them, else
+    more vertices, unless rounds with more did not help."""
+    if hull_slivers:
+        return (f"the outline's {hull_slivers} hull slivers leave no scan vertex along its longest edges, where the "
+                "coarse faces cannot follow the data: --repair peels them")
     most = max((h["vertices"] for h in history), default=st["vertices"])
     if st["vertices"] < STALLED_SHARE * most:
         return (f"the fit kept has {st['vertices']} vertices: the rounds up to {most} deviated more, so more "
@@ -199,6 +203,8 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
     (load and validate the mesh; write all outputs atomically; the fit's file keys)."""
     import numpy as np
 
+    from trispline.param.inspect import hull_report
+
     mesh = load(args, ui)
     weights = _weights(args, ui, fields)
     result, seconds = _approximate(args, ui, mesh, weights)
@@ -223,7 +229,8 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
             ui.result(data, _text)
             print(f"{PROG}: error: {what}; nothing written (--strict)", file=sys.stderr)
             return EXIT_CHECK
-        ui.warn(f"{what}; {_advice(st, result.history)}")
+        hull = 0 if mesh.repair is not None else hull_report(mesh.V, mesh.F)["hull_slivers"]
+        ui.warn(f"{what}; {_advice(st, result.history, hull)}")
     surface = extras(result, result.weights, args.param, mesh.source, None)
     if mesh.kept is not None:  # coarse vertex -> vertex of the mesh file
         from trispline.spline.surface import SplineSurface

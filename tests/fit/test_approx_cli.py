@@ -117,6 +117,8 @@ def test_the_advice_on_an_unmet_tolerance_follows_the_rounds():
     assert _advice({"vertices": 99}, rounds) == "raise --vertices or the tolerance"
     # the round kept (smallest max deviation) was an early one: a larger budget buys nothing
     assert "the fit kept has 27 vertices: the rounds up to 100 deviated more" in _advice({"vertices": 27}, rounds)
+    # an outline of hull slivers (scattered points triangulated): no budget helps along its edges, peeling does
+    assert _advice({"vertices": 100}, rounds, hull_slivers=12).endswith("--repair peels them")
 
 
 def test_help_lists_the_approximation_options(capsys):
