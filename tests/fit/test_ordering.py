@@ -129,7 +129,7 @@ _METIS_SIGTERM = """
 import os, signal, sys, threading, time
 import numpy as np, scipy.sparse as sp
 from trispline.fit.ordering import _recursive_bisection
-n = 800  # a grid graph METIS takes about a second to bisect
+n = 1200  # a grid graph METIS takes a few seconds to bisect
 i = np.arange(n * n).reshape(n, n)
 r = np.concatenate([i[:-1].ravel(), i[:, :-1].ravel()])
 c = np.concatenate([i[1:].ravel(), i[:, 1:].ravel()])
@@ -137,7 +137,7 @@ G = sp.csr_array((np.ones(2 * r.size), (np.r_[r, c], np.r_[c, r])), shape=(n * n
 done = threading.Event()
 t = threading.Thread(target=lambda: (_recursive_bisection(G.indptr, G.indices, np.ones(G.nnz), 256), done.set()))
 t.start()
-time.sleep(0.05)
+time.sleep(0.3)  # past METIS's start, where its handler goes in (the guard puts it back within ~2 ms of CPU)
 if done.is_set():
     sys.exit(3)  # METIS was done before the signal: nothing tested
 os.kill(os.getpid(), signal.SIGTERM)
