@@ -28,7 +28,7 @@ from typing import Any, Callable
 import numpy as np
 import scipy.sparse as sp
 
-from trispline.param import DEFAULT_METHOD, face_areas_3d
+from trispline.param import DEFAULT_METHOD, face_areas_3d, hull_sliver_faces
 from trispline.spline.checks import as_array
 from trispline.spline.continuity import continuity_report
 from trispline.spline.errors import InputError, first_few
@@ -132,8 +132,10 @@ class ApproxResult:
         points outside the coarse domain that no boundary patch reaches, left out of the fit's data term:
         :func:`~.fit.scan_location`; their deviation still counts), vertices,
         patches, tolerance, budget, met, stop (why the refinement stopped), rounds, noise, scale,
-        data_weight, cross_validated (whether it was chosen so) and corrections (the parameter corrections
-        of the fit kept, :func:`_final`)
+        data_weight, cross_validated (whether it was chosen so), corrections (the parameter corrections
+        of the fit kept, :func:`_final`) and hull_slivers (the scan's outline faces that
+        :func:`trispline.param.hull_sliver_faces` finds: where there are any, no coarse vertex can go
+        along the hull's long edges and ``repair_mesh`` peels them)
     energies : dict term -> energy (``bend``, ``data``; data units); iterations : Gauss--Newton steps
     converged : bool; history : one record per round (vertices, max, rms, rejected, seconds)
     timings : dict stage -> seconds; parameterization : the Parameterization (``method="uv"`` with ``uv``)
@@ -658,7 +660,8 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
                  tolerance=opt.tolerance, budget=opt.budget, met=bool(met), stop=stop, rounds=len(history),
                  noise=float(dom.stats.noise), noise_correlation=float(dom.stats.noise_correlation), scale=nominal,
                  scan_vertices=int(V.shape[0]), outline_gap=_outline_gap(state, V))
-    stats.update(data_weight=float(weights.data), cross_validated=opt.auto, corrections=state.corrections)
+    stats.update(data_weight=float(weights.data), cross_validated=opt.auto, corrections=state.corrections,
+                 hull_slivers=int(hull_sliver_faces(V, parameterization.faces).sum()))
     settings = dict(loss=opt.loss, corners=opt.corners, tolerance=opt.tolerance, budget=opt.budget, scale=nominal,
                     data_weight=float(weights.data))
     extras = surface_extras(dom, fit, V, stats, settings, weights)

@@ -160,7 +160,7 @@ def _summary(args: argparse.Namespace, result: Any, mesh: Any, seconds: float) -
         corners=result.settings["corners"], loss=result.settings["loss"], tolerance=st["tolerance"],
         budget=st["budget"], met=st["met"], stop=st["stop"], deviation=st["deviation"],
         deviation_all=st["deviation_all"], outline_gap=st["outline_gap"], outline_tolerance=bool(args.outline_tolerance),
-        rejected=st["rejected"], noise=st["noise"],
+        rejected=st["rejected"], noise=st["noise"], hull_slivers=st["hull_slivers"],
         noise_correlation=st["noise_correlation"], rounds=result.history,
         weights=dataclasses.asdict(result.weights), data_weight=st["data_weight"],
         cross_validated=st["cross_validated"], energies=result.energies, iterations=int(result.iterations),
@@ -203,8 +203,6 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
     (load and validate the mesh; write all outputs atomically; the fit's file keys)."""
     import numpy as np
 
-    from trispline.param.inspect import hull_report
-
     mesh = load(args, ui)
     weights = _weights(args, ui, fields)
     result, seconds = _approximate(args, ui, mesh, weights)
@@ -229,8 +227,7 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
             ui.result(data, _text)
             print(f"{PROG}: error: {what}; nothing written (--strict)", file=sys.stderr)
             return EXIT_CHECK
-        hull = 0 if mesh.repair is not None else hull_report(mesh.V, mesh.F)["hull_slivers"]
-        ui.warn(f"{what}; {_advice(st, result.history, hull)}")
+        ui.warn(f"{what}; {_advice(st, result.history, st['hull_slivers'])}")
     surface = extras(result, result.weights, args.param, mesh.source, None)
     if mesh.kept is not None:  # coarse vertex -> vertex of the mesh file
         from trispline.spline.surface import SplineSurface

@@ -10,7 +10,7 @@ from trispline.fit.approx import approximate_surface
 from trispline.fit.approx.holes import SPAN_HOLE_AREA, folded_holes, span_holes
 from trispline.fit.cli import main
 from trispline.fit.datasets.tile import scattered_tile
-from trispline.param import repair_mesh, validate_mesh
+from trispline.param import hull_sliver_faces, repair_mesh, validate_mesh
 from trispline.spline.topology import Triangulation, undirected_edges
 
 
@@ -118,6 +118,7 @@ def test_a_peeled_scattered_tile_meets_the_tolerance_with_fewer_vertices():
     peeled = approximate_surface(r.V, r.F, tolerance_rel=3e-3)
     assert peeled.stats["met"] and not plain.stats["met"]
     assert peeled.stats["vertices"] < 0.8 * plain.stats["vertices"]
+    assert plain.stats["hull_slivers"] == hull_sliver_faces(V, F).sum() > 10 * peeled.stats["hull_slivers"]
 
 
 def test_the_command_line_says_to_peel_them(tmp_path, capsys):
