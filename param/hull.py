@@ -22,7 +22,7 @@ from trispline.spline.topology import undirected_edges
 
 from .tables import vertex_components
 
-__all__ = ["HULL_EDGE_RATIO", "HULL_MAX_SHARE", "HULL_SLIVER_ASPECT", "hull_sliver_faces"]
+__all__ = ["HULL_EDGE_RATIO", "HULL_MAX_SHARE", "HULL_SLIVER_ASPECT", "edge_lengths", "hull_sliver_faces"]
 
 #: An outline edge this many times the spacing at its face's far corner or longer is a hull chord
 #: (the shared real scans' longest outline edges are 1.1-3.7 times the median edge of the mesh).
@@ -38,23 +38,25 @@ HULL_MAX_SHARE = 0.1
 MAX_HULL_ROUNDS = 256
 
 
-def hull_sliver_faces(V: np.ndarray, F: np.ndarray, *, rounds: int = MAX_HULL_ROUNDS) -> np.ndarray:
+def hull_sliver_faces(V: np.ndarray, F: np.ndarray, *, rounds: int = MAX_HULL_ROUNDS,
+                      tables: tuple | None = None) -> np.ndarray:
     """``(nf,)`` bool: the hull slivers of ``V (nv, 3), F (nf, 3)`` (see the module docstring).
 
     Peeled for at most ``rounds`` rounds (1: only those on the outline now). Vectorised: only the
-    half-edges long and thin enough to qualify are followed from round to round.
+    half-edges long and thin enough to qualify are followed from round to round, and the spacing is
+    measured only at the far corners of the thin ones. ``tables``: :func:`edge_lengths` of the mesh,
+    when known.
     """
     F = np.asarray(F, np.int64)
     nf = F.shape[0]
     out = np.zeros(nf, bool)
     if nf == 0:
         return out
-    he, _, he_edge, count = undirected_edges(F, V.shape[0])
-    length = np.linalg.norm(V[he[:, 0]] - V[he[:, 1]], axis=1)  # (3 nf,): row 3 f + k is face f's, opposite F[f, k]
+    he, he_edge, count, length = edge_lengths(V, F) if tables is None else tables
     doubled_area = np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
-    height = np.repeat(doubled_area, 3) / np.maximum(length, np.finfo(float).tiny)
-    spacing = _spacing(F, he, length, V.shape[0])
-    chord = np.flatnonzero((length >= HULL_EDGE_RATIO * spacing) & (length >= HULL_SLIVER_ASPECT * height))
+    thin = np.flatnonzero(length >= HULL_SLIVER_ASPECT * np.repeat(doubled_area, 3) / np.maximum(
+        length, np.finfo(float).tiny))
+    chord = thin[length[thin] >= HULL_EDGE_RATIO * _spacing(F, he, length, V.shape[0], F.ravel()[thin])]
     faces_left = count.copy()
     for _ in range(rounds):
         live = chord[~out[chord // 3]]
@@ -69,24 +71,41 @@ def hull_sliver_faces(V: np.ndarray, F: np.ndarray, *, rounds: int = MAX_HULL_RO
     return out
 
 
-def _spacing(F: np.ndarray, he: np.ndarray, length: np.ndarray, nv: int) -> np.ndarray:
-    """``(3 nf,)`` the spacing of the points at the corner opposite each half-edge ``he (3 nf, 2)``: the
-    smaller of the median edge at that corner and the median edge of its connected component.
+def edge_lengths(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(he (3 nf, 2), he_edge (3 nf,), edge_count (ne,), length (3 nf,))``: the half-edges of ``F`` (row
+    ``3 f + k`` is face ``f``'s, opposite ``F[f, k]``; :func:`~trispline.spline.topology.undirected_edges`)
+    and their lengths over ``V``."""
+    he, _, he_edge, count = undirected_edges(np.asarray(F, np.int64), V.shape[0])
+    return he, he_edge, count, np.linalg.norm(V[he[:, 0]] - V[he[:, 1]], axis=1)
+
+
+def _spacing(F: np.ndarray, he: np.ndarray, length: np.ndarray, nv: int, corner: np.ndarray) -> np.ndarray:
+    """``(k,)`` the spacing of the points at the vertices ``corner (k,)``: the smaller of the median edge
+    there (over the half-edges ``he (3 nf, 2)`` of ``length (3 nf,)``) and the median edge of its connected
+    component.
 
     The corner's own median: a coarse part of a graded mesh keeps its long outline edges. The
     component's: a far corner that a fan of slivers leaves too (2.5 m inside a 1 km tile: edges of
     1.3-17 m and four of 48-137 m, median 48) still sees the tile's spacing (12 m).
     """
+    if corner.size == 0:
+        return np.zeros(0)
     _, label = vertex_components(F, nv)
-    at_vertex = _median_by(np.repeat(length, 2), he.ravel(), nv)  # an interior edge from both of its faces
-    at_component = _median_by(length, label[he[:, 0]], int(label.max()) + 1)
-    corner = F.ravel()
+    ends, values = he.ravel(), np.repeat(length, 2)  # an interior edge from both of its faces
+    near = np.isin(ends, corner)
+    at_vertex = _median_by(values[near], ends[near], nv)
+    first = label[he[:, 0]]
+    own = np.isin(first, label[corner])
+    at_component = _median_by(length[own], first[own], int(label.max()) + 1)
     return np.minimum(at_vertex[corner], at_component[label[corner]])
 
 
 def _median_by(values: np.ndarray, group: np.ndarray, n: int) -> np.ndarray:
-    """``(n,)`` the (upper) median of ``values (h,)`` in each ``group (h,)`` of ``0..n-1`` (0 where empty)."""
-    order = np.lexsort((values, group))
+    """``(n,)`` the (upper) median of ``values (h,)`` in each ``group (h,)`` of ``0..n-1`` (0 where empty).
+    The order of ``np.lexsort((values, group))`` by two sorts, the second a stable one of integers: half
+    the time (0.29 against 0.54 s for 3M values)."""
+    order = np.argsort(values)
+    order = order[np.argsort(group[order], kind="stable")]
     count = np.bincount(group, minlength=n)
     start = np.concatenate([[0], np.cumsum(count)[:-1]])
     out = np.zeros(n)

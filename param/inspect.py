@@ -18,7 +18,7 @@ import numpy as np
 from trispline.spline.checks import check_ids
 
 from .errors import MeshError
-from .hull import hull_sliver_faces
+from .hull import edge_lengths, hull_sliver_faces
 from .parameterize import parameterize
 from .repair_mesh import repair_mesh
 from .tables import boundary_loop_count, fan_counts, undirected_edges, vertex_components
@@ -118,12 +118,12 @@ def hull_report(V: np.ndarray, F: np.ndarray) -> dict[str, Any]:
     """``hull_slivers``: the faces :func:`~trispline.param.hull.hull_sliver_faces` would peel off the
     outline (the hull of a triangulation of scattered points), and ``longest_outline_edge``: the longest
     outline edge over the median edge of the mesh (None without an outline)."""
-    he, _, he_edge, count = undirected_edges(F, V.shape[0])
-    length = np.linalg.norm(V[he[:, 0]] - V[he[:, 1]], axis=1)
+    tables = edge_lengths(V, F)
+    _, he_edge, count, length = tables
     rim = count[he_edge] == 1
     median = float(np.median(length)) if length.size else 0.0
     longest = float(length[rim].max() / median) if rim.any() and median > 0 else None
-    return dict(hull_slivers=int(hull_sliver_faces(V, F).sum()), longest_outline_edge=longest)
+    return dict(hull_slivers=int(hull_sliver_faces(V, F, tables=tables).sum()), longest_outline_edge=longest)
 
 
 def _loop_counts(rep: dict[str, Any], edges: np.ndarray, count: np.ndarray, nv: int) -> None:

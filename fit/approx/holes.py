@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from trispline.param import polygon_area
-from trispline.spline.topology import signed_areas
+from trispline.spline.topology import signed_areas, undirected_edges
 
 __all__ = ["SPAN_HOLE_AREA", "folded_holes", "span_holes"]
 
@@ -43,8 +43,8 @@ def span_holes(F: np.ndarray, holes: list[np.ndarray]) -> np.ndarray:
     """
     F = np.asarray(F, np.int64)
     n = int(F.max()) + 1 if F.size else 0
-    edges = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    existing = np.unique(edges[:, 0] * n + edges[:, 1])
+    _, edges, _, _ = undirected_edges(F, n)
+    existing = edges[:, 0] * n + edges[:, 1]
     fans = []
     for hole in holes:
         for r in range(hole.size):
