@@ -29,7 +29,7 @@ from trispline.spline.topology import outline_vertex_mask
 from .errors import MeshError
 from .hull import hull_sliver_faces
 from .tables import corner_fans, edge_pairs, orientation_classes, undirected_edges, vertex_components
-from .validate import as_mesh_arrays, folded_edges, repeated_vertex_faces, zero_area_faces
+from .validate import as_mesh_arrays, duplicate_faces, folded_edges, repeated_vertex_faces, zero_area_faces
 
 __all__ = ["RepairedMesh", "repair_mesh"]
 
@@ -88,9 +88,9 @@ def _drop_bad_faces(V: np.ndarray, F: np.ndarray, changes: dict) -> np.ndarray:
     changes["zero_area_faces"] = int(zero.sum())
     keep &= ~zero
     idx = np.flatnonzero(keep)
-    _, first = np.unique(np.sort(F[idx], axis=1), axis=0, return_index=True)
-    changes["duplicate_faces"] = int(idx.size - first.size)
-    return idx[np.sort(first)]
+    dup = duplicate_faces(F[idx])
+    changes["duplicate_faces"] = int(dup.sum())
+    return idx[~dup]
 
 
 def _manifold_pairs(F: np.ndarray, nv: int) -> tuple[np.ndarray, np.ndarray, int]:

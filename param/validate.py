@@ -141,6 +141,14 @@ def repeated_vertex_faces(F: np.ndarray) -> np.ndarray:
     return (F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 0] == F[:, 2])
 
 
+def duplicate_faces(F: np.ndarray) -> np.ndarray:
+    """Mask ``(nf,)`` of faces with the vertex set of an earlier face (in either orientation)."""
+    dup = np.ones(F.shape[0], bool)
+    if F.shape[0]:
+        dup[np.unique(np.sort(F, axis=1), axis=0, return_index=True)[1]] = False
+    return dup
+
+
 def as_mesh_arrays(V, F) -> tuple[np.ndarray, np.ndarray]:
     """``(V (nv, 3) float64, F (nf, 3) int64)``, contiguous; a planar ``(nv, 2)`` V is lifted to z = 0.
 
@@ -221,6 +229,11 @@ def validate_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False,
                          kept=kept, kept_faces=kept_faces)
 
 
+#: The problems :func:`~trispline.param.repair_mesh` removes (the error names it).
+REPAIRABLE = frozenset({"repeated_vertex_id", "zero_area", "duplicate_faces", "non_manifold_edges",
+                        "bowtie_vertices"})
+
+
 def _check_ids(V: np.ndarray, F: np.ndarray, ids: np.ndarray) -> None:
     """Stage 1: problems that make everything else meaningless (raised at once); ``ids (nv,)``: the
     vertices' numbers in messages."""
@@ -292,6 +305,9 @@ def _local_problems(V: np.ndarray, F: np.ndarray, edges: np.ndarray, he_edge: np
     if tiny.size:
         problems.append(("zero_area", f"zero-area faces (area < {MIN_RELATIVE_AREA_3D:g} x mean): "
                                       f"{first_few(tiny)}"))
+    dup = np.flatnonzero(duplicate_faces(F))
+    if dup.size:
+        problems.append(("duplicate_faces", f"duplicate faces (the three vertices of an earlier face): {first_few(dup)}"))
     nm = np.flatnonzero(edge_count > 2)
     if nm.size:
         nm_faces = np.unique(np.flatnonzero(np.isin(he_edge, nm)) // 3)
@@ -357,7 +373,9 @@ def _topology_report(nv: int, ne: int, nf: int, nb: int) -> dict:
 
 def _raise(problems: list[tuple[str, str]]) -> None:
     kinds = [k for k, _ in problems]
+    hint = ("; repair_mesh (--repair of trispline fit and info) drops such faces and splits such vertices"
+            if REPAIRABLE.intersection(kinds) else "")
     if len(problems) == 1:
-        raise MeshError(f"invalid mesh: {problems[0][1]}", kinds)
+        raise MeshError(f"invalid mesh: {problems[0][1]}{hint}", kinds)
     lines = "\n".join(f"  - {m}" for _, m in problems)
-    raise MeshError(f"invalid mesh ({len(problems)} problems):\n{lines}", kinds)
+    raise MeshError(f"invalid mesh ({len(problems)} problems):\n{lines}{hint}", kinds)

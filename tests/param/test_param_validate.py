@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from trispline.param import MeshError, validate_mesh
+from trispline.param import MeshError, repair_mesh, validate_mesh
 from trispline.param.testing import lift
 from trispline.spline.testing.domains import annulus, random_delaunay
 from trispline.spline.errors import InputError
@@ -141,6 +141,26 @@ def test_non_manifold_edge():
     with pytest.raises(MeshError, match=r"non-manifold edges \(shared by more than 2 faces\): 1 edges") as e:
         validate_mesh(V, F)
     assert e.value.kinds == ("non_manifold_edges",)
+
+
+def test_duplicate_faces_are_named_and_repair_mesh_drops_them():
+    V, F = disk()
+    doubled = np.concatenate([F, F[[3, 0]][:, ::-1]])  # two faces again, one each way round
+    with pytest.raises(MeshError, match=r"(?s)duplicate faces \(the three vertices of an earlier face\): 2 \(first: "
+                       rf"{len(F)}, {len(F) + 1}\).*--repair") as e:
+        validate_mesh(V, doubled)
+    assert set(e.value.kinds) == {"duplicate_faces", "non_manifold_edges"}
+    r = repair_mesh(V, doubled)
+    assert r.changes["duplicate_faces"] == 2 and np.array_equal(r.F, F)
+
+
+def test_only_repairable_problems_point_at_repair():
+    V, F = disk()
+    with pytest.raises(MeshError, match="--repair"):
+        validate_mesh(V, np.concatenate([F, [[0, 0, 1]]]))
+    with pytest.raises(MeshError) as e:
+        validate_mesh(V, np.concatenate([F, [[0, 1, len(V)]]]))
+    assert "--repair" not in str(e.value)
 
 
 def test_bowtie_vertex():
