@@ -20,7 +20,7 @@ from .distortion import (
     distortion_report, face_distortion, face_jacobians, fold_mask, outline_crossings, segment_crossings, summarize,
 )
 from .domain import UVTransform, normalise, reverse_faces, user_domain
-from .errors import MeshError, MeshWarning, UnreferencedVerticesWarning
+from .errors import CoordinatePrecisionWarning, MeshError, MeshWarning, UnreferencedVerticesWarning
 from .hull import hull_sliver_faces
 from .inspect import inspect_mesh
 from .methods import harmonic_uv, slim_uv
@@ -31,7 +31,7 @@ from .tables import loop_successors
 from .validate import ValidatedMesh, face_areas_3d, face_aspects, refuse_slivers, sliver_message, validate_mesh
 
 __all__ = [
-    "MeshError", "MeshWarning", "UnreferencedVerticesWarning",
+    "CoordinatePrecisionWarning", "MeshError", "MeshWarning", "UnreferencedVerticesWarning",
     "ValidatedMesh", "face_areas_3d", "face_aspects", "hull_sliver_faces", "refuse_slivers", "sliver_message", "validate_mesh", "inspect_mesh", "RepairedMesh", "repair_mesh",
     "DEFAULT_METHOD", "METHODS", "Parameterization", "UVTransform", "parameterize", "harmonic_uv", "slim_uv",
     "user_domain", "reverse_faces", "fill_holes", "fold_mask", "normalise", "repair_folds", "tutte",

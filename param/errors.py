@@ -23,3 +23,8 @@ class MeshWarning(UserWarning):
 
 class UnreferencedVerticesWarning(MeshWarning):
     """Vertices used by no face were dropped (the others keep their order)."""
+
+
+class CoordinatePrecisionWarning(MeshWarning):
+    """The file's coordinates are rounded by a noticeable share of the mesh's edges (single precision far from
+    the origin): folds and roughness at that scale are the rounding's."""

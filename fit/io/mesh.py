@@ -29,13 +29,17 @@ from pathlib import Path
 
 import numpy as np
 
-from trispline.param.errors import MeshError, UnreferencedVerticesWarning
+from trispline.param.errors import CoordinatePrecisionWarning, MeshError, UnreferencedVerticesWarning
 from trispline.spline.errors import first_few
 
 from .mesh_parse import read_obj, read_off, read_trimesh
 
 #: File extensions :func:`read_mesh` understands.
 SUPPORTED = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf")
+#: A single-precision file whose rounding reaches this share of the median edge is warned about.
+ROUNDING_SHARE = 0.01
+#: Faces whose edges set the median edge length (the first ones: a cheap, representative sample).
+EDGE_SAMPLE = 100_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,13 +83,13 @@ def read_mesh(path: str | Path) -> MeshData:
     path = _readable_file(path)
     ext = path.suffix.lower()
     try:
-        uv, uv_note = None, None
+        uv, uv_note, single = None, None, False
         if ext == ".obj":
             V, F, uv, uv_note = read_obj(path)
         elif ext == ".off":
             V, F = read_off(path)
         else:
-            V, F = read_trimesh(path, ext)
+            V, F, single = read_trimesh(path, ext)
     except MeshError:
         raise
     except Exception as exc:  # noqa: BLE001 - any parser failure is a user-facing format error
@@ -103,6 +107,8 @@ def read_mesh(path: str | Path) -> MeshData:
         raise MeshError(
             f"{path}: faces refer to vertices outside [0, {V.shape[0]}): {first_few(bad)}", ["unreadable"]
         )
+    if single:
+        _warn_rounding(path, V, F)
     used = np.zeros(V.shape[0], bool)
     used[F.ravel()] = True
     kept = np.flatnonzero(used).astype(np.int64)
@@ -119,6 +125,29 @@ def read_mesh(path: str | Path) -> MeshData:
         V, F = V[used], remap[F]
         uv = None if uv is None else uv[used]
     return MeshData(V=V, F=F, uv=uv, path=path, dropped=dropped, kept=kept, uv_note=uv_note)
+
+
+def single_rounding(V: np.ndarray) -> float:
+    """The largest rounding error of coordinates ``V (nv, 3)`` stored in single precision: half the
+    float32 spacing at the largest magnitude (0.25 at 4.2e6, a map projection's northing)."""
+    return float(0.5 * np.spacing(np.float32(np.abs(V).max()))) if V.size else 0.0
+
+
+def _warn_rounding(path: Path, V: np.ndarray, F: np.ndarray) -> None:
+    """A :class:`CoordinatePrecisionWarning` where single-precision rounding reaches :data:`ROUNDING_SHARE`
+    of the median edge length of ``F``'s first :data:`EDGE_SAMPLE` faces."""
+    rounding = single_rounding(V)
+    f = F[:EDGE_SAMPLE]
+    edges = np.linalg.norm(V[f] - V[np.roll(f, 1, axis=1)], axis=2)
+    edge = float(np.median(edges)) if edges.size else 0.0
+    if edge > 0 and rounding > ROUNDING_SHARE * edge:
+        warnings.warn(
+            f"{path} stores its coordinates in single precision (float32), which at magnitudes up to "
+            f"{np.abs(V).max():.3g} rounds them by up to {rounding:.3g}: {100 * rounding / edge:.2g}% of the "
+            f"median edge length {edge:.3g}; folds and roughness at that scale are the rounding's, and a "
+            "tolerance near it cannot be met. Write the mesh in double precision, or subtract an offset (e.g. "
+            "the bounding box's corner) before writing it",
+            CoordinatePrecisionWarning, stacklevel=3)
 
 
 def _readable_file(path: str | Path) -> Path:

@@ -316,8 +316,9 @@ def _ply_min_bytes(header: list[str], ascii_: bool) -> tuple[int, dict[str, int]
     return need, counts
 
 
-def check_ply_header(path: Path) -> None:
-    """Refuse a PLY whose header claims more elements than the rest of the file can hold."""
+def check_ply_header(path: Path) -> bool:
+    """Refuse a PLY whose header claims more elements than the rest of the file can hold; True where its
+    vertices' ``x, y, z`` are stored in single precision (``float`` / ``float32``)."""
     with open(path, "rb") as fh:
         blob = fh.read(_PLY_MAX_HEADER)
     end = blob.find(b"end_header")
@@ -334,6 +335,19 @@ def check_ply_header(path: Path) -> None:
         claims = ", ".join(f"{n} {k}" for k, n in counts.items())
         raise _unreadable(path, f"header announces {claims}, which need at least {need} bytes, "
                                 f"but the file has {max(body, 0)} after its header (truncated?)")
+    return _ply_single(header)
+
+
+def _ply_single(header: list[str]) -> bool:
+    """Whether the ``vertex`` element of a PLY header stores ``x``, ``y`` or ``z`` as 4-byte floats."""
+    element = None
+    for tok in (ln.split() for ln in header):
+        if tok[:1] == ["element"] and len(tok) >= 2:
+            element = tok[1]
+        elif element == "vertex" and len(tok) == 3 and tok[0] == "property" and tok[2] in ("x", "y", "z"):
+            if tok[1] in ("float", "float32"):
+                return True
+    return False
 
 
 def check_stl_size(path: Path) -> None:
@@ -354,13 +368,15 @@ def check_stl_size(path: Path) -> None:
                             "with 'solid' (ASCII STL)")
 
 
-def read_trimesh(path: Path, ext: str) -> tuple[np.ndarray, np.ndarray]:
-    """``(V, F)`` through ``trimesh.load(process=False)``; an STL's exactly equal corners merged
-    (first occurrence first), because STL has no other notion of shared vertices."""
+def read_trimesh(path: Path, ext: str) -> tuple[np.ndarray, np.ndarray, bool]:
+    """``(V, F, single)`` through ``trimesh.load(process=False)``; an STL's exactly equal corners merged
+    (first occurrence first), because STL has no other notion of shared vertices. ``single``: the file
+    stores the coordinates in single precision (binary PLY of ``float`` vertices, STL, GLB/GLTF)."""
     import trimesh
 
+    single = ext in (".stl", ".glb", ".gltf")
     if ext == ".ply":
-        check_ply_header(path)
+        single = check_ply_header(path)
     elif ext == ".stl":
         check_stl_size(path)
     mesh = trimesh.load(path, process=False, force="mesh", maintain_order=True)
@@ -376,4 +392,4 @@ def read_trimesh(path: Path, ext: str) -> tuple[np.ndarray, np.ndarray]:
         rank[order] = np.arange(order.size)
         V = corners[first[order]]
         F = rank[inv.ravel()].reshape(-1, 3)
-    return V, F
+    return V, F, single

@@ -1,13 +1,15 @@
 """Mesh loading: order-preserving round trips, polygons, vt, unreferenced vertices, errors."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import trimesh
 
 from trispline.fit.datasets.cache import MISSING_DATA, find_data
 from trispline.fit.io import MeshData, load_mesh, read_mesh
-from trispline.param import MeshError, UnreferencedVerticesWarning
+from trispline.param import CoordinatePrecisionWarning, MeshError, UnreferencedVerticesWarning
 from trispline.param.testing import lift
 from trispline.spline.testing.domains import random_delaunay
 from trispline.spline.errors import InputError
@@ -46,6 +48,36 @@ def test_round_trip_keeps_vertex_and_face_order(tmp_path, mesh, ext):
     assert m.dropped == 0
     np.testing.assert_array_equal(m.kept, np.arange(len(V)))
     assert m.V.dtype == np.float64 and m.F.dtype == np.int64
+
+
+def write_double_ply(path, V, F) -> None:
+    """A binary PLY whose vertices are ``double`` (trimesh writes ``float``)."""
+    head = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(V)}\nproperty double x\n"
+            f"property double y\nproperty double z\nelement face {len(F)}\n"
+            "property list uchar int vertex_indices\nend_header\n")
+    faces = np.zeros(len(F), dtype=[("n", "u1"), ("v", "<i4", 3)])
+    faces["n"], faces["v"] = 3, F
+    path.write_bytes(head.encode() + np.asarray(V, "<f8").tobytes() + faces.tobytes())
+
+
+@pytest.mark.parametrize("ext", ["ply", "stl", "glb"])
+def test_single_precision_far_from_the_origin_is_warned_about(tmp_path, mesh, ext):
+    V, F = mesh  # spacing ~0.1: a northing of 4.2e6 in float32 rounds by 0.25, far more than 1% of an edge
+    path = tmp_path / f"far.{ext}"
+    trimesh.Trimesh(V + [512_300.0, 4_231_800.0, 0.0], F, process=False).export(path)
+    with pytest.warns(CoordinatePrecisionWarning, match=r"single precision.*rounds them by up to 0\.25"):
+        read_mesh(path)
+
+
+def test_single_precision_near_the_origin_and_double_precision_are_quiet(tmp_path, mesh):
+    V, F = mesh
+    near, far = tmp_path / "near.ply", tmp_path / "far.ply"
+    trimesh.Trimesh(V, F, process=False).export(near)  # float32, rounding ~1e-8 of an edge
+    write_double_ply(far, V + [512_300.0, 4_231_800.0, 0.0], F)  # the same far-off mesh in double precision
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read_mesh(near)
+        np.testing.assert_array_equal(read_mesh(far).V, V + [512_300.0, 4_231_800.0, 0.0])
 
 
 def test_stl_round_trip_merges_exactly_equal_corners(tmp_path, mesh):
