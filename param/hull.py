@@ -12,7 +12,9 @@ of the points at the face's far corner (:func:`_spacing`) and at least :data:`HU
 times the face's height over it, and peels them round by round, as each peeled face exposes the next
 one behind it. The spacing is the smaller of the far corner's median edge and its component's: a
 second component of another scale keeps its outline, but a thin face along a long outline edge of a
-graded mesh's coarse part (a decimated terrain's flats) is peeled like a hull sliver.
+graded mesh's coarse part (a decimated terrain's flats) is peeled like a hull sliver. A face whose
+peeling would leave a vertex without faces stays (a sliver carries no point of its own): a coarse
+column of a graded grid along its rim loses one face at each end, not the column.
 """
 from __future__ import annotations
 
@@ -58,17 +60,27 @@ def hull_sliver_faces(V: np.ndarray, F: np.ndarray, *, rounds: int = MAX_HULL_RO
         length, np.finfo(float).tiny))
     chord = thin[length[thin] >= HULL_EDGE_RATIO * _spacing(F, he, length, V.shape[0], F.ravel()[thin])]
     faces_left = count.copy()
+    vertex_faces = np.bincount(F.ravel(), minlength=V.shape[0])
     for _ in range(rounds):
         live = chord[~out[chord // 3]]
         rim = live[faces_left[he_edge[live]] == 1]
-        if not rim.size:
+        peeled = _keeping_vertices(F, np.unique(rim // 3), vertex_faces)
+        if not peeled.size:
             break
-        peeled = np.unique(rim // 3)
         out[peeled] = True
         np.subtract.at(faces_left, he_edge[(3 * peeled[:, None] + np.arange(3)).ravel()], 1)
+        vertex_faces -= np.bincount(F[peeled].ravel(), minlength=V.shape[0])
     if out.sum() > HULL_MAX_SHARE * nf:
         out[:] = False
     return out
+
+
+def _keeping_vertices(F: np.ndarray, faces: np.ndarray, vertex_faces: np.ndarray) -> np.ndarray:
+    """The faces ``faces (k,)`` whose peeling leaves each of their vertices a face (``vertex_faces (nv,)``:
+    the faces each has now). A hull sliver carries no point of its own, so a vertex left with none is a
+    sampled outline peeled away: a graded mesh's coarse column along its rim, not a hull."""
+    emptied = vertex_faces - np.bincount(F[faces].ravel(), minlength=vertex_faces.size) <= 0
+    return faces[~emptied[F[faces]].any(axis=1)]
 
 
 def edge_lengths(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

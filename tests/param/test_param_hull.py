@@ -77,6 +77,20 @@ def test_the_shared_real_scans_lose_nothing(name):
     assert not hull_sliver_faces(m.V, m.F).any()
 
 
+def test_a_coarse_column_along_the_rim_of_a_graded_grid_keeps_its_points():
+    """A grid of 30 x 30 whose last column is 15x as wide: its faces are as thin as hull slivers and stack
+    the same way, but peeling them would drop the points along the rim, which no hull sliver holds."""
+    t = np.linspace(0.0, 1.0, 30)
+    u, v = np.meshgrid(np.r_[t[:-1] * 0.5, 1.0], t, indexing="ij")
+    idx = np.arange(900).reshape(30, 30)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
+    F = np.concatenate([np.c_[a, b, c], np.c_[a, c, d]])
+    V = np.c_[u.ravel(), v.ravel(), np.zeros(900)]
+    peeled = hull_sliver_faces(V, F)
+    assert peeled.sum() <= 2  # at most the first face at each end of the column
+    assert np.isin(np.arange(900), F[~peeled]).all()
+
+
 def test_a_mesh_made_of_such_faces_keeps_them(monkeypatch):
     """More than HULL_MAX_SHARE of the faces would go: they are the mesh, not a hull around it."""
     V, F = scattered_tile(1000, seed=5)
