@@ -16,15 +16,35 @@ from __future__ import annotations
 import numpy as np
 
 from trispline.param import polygon_area
+from trispline.param.tables import boundary_loops
 from trispline.spline.topology import signed_areas, undirected_edges
 
-__all__ = ["SPAN_HOLE_AREA", "folded_holes", "span_holes"]
+__all__ = ["SMALL_HOLE", "SPAN_HOLE_AREA", "folded_holes", "small_holes", "span_holes"]
 
 #: A hole whose signed uv area (clockwise: negative) is above ``-SPAN_HOLE_AREA`` times the median uv
 #: face area per vertex of its loop is folded shut: a thousandth of a triangle per vertex (halftunnel's
 #: smaller hole, 16 vertices squeezed by LSCM to 0.12 of a triangle, is a hole to keep; a hole of 4
 #: vertices squeezed to 0.007 of one was lost by the coarse domain, which the pipeline then spans).
 SPAN_HOLE_AREA = 1e-3
+
+
+#: Holes with at most this many vertices around are counted as small (scanner dropouts: a few missing
+#: triangles); the command line suggests ``--fill-holes`` where there are some.
+SMALL_HOLE = 8
+
+
+def small_holes(V: np.ndarray, F: np.ndarray, max_vertices: int) -> list[np.ndarray]:
+    """The hole loops of ``V (n, 3)``, ``F (m, 3)`` with at most ``max_vertices`` vertices around (surface on
+    their left; the longest loop in 3D is the outline and never one of them).
+
+    A dropout of a few triangles must keep at least three coarse vertices and leaves a hole in the
+    approximation; spanned first (:func:`span_holes`, ``approximate_surface(fill_holes=)``), the surface
+    goes over it, as over the rest of the scan between its vertices."""
+    if max_vertices < 3:
+        return []
+    he, _, he_edge, count = undirected_edges(F, V.shape[0])
+    loops = boundary_loops(V, F, he_edge, count)
+    return [h for h in loops[1:] if h.size <= max_vertices]
 
 
 def folded_holes(uv: np.ndarray, faces: np.ndarray, loops: list[np.ndarray]) -> list[np.ndarray]:

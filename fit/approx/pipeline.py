@@ -47,7 +47,7 @@ from .deviation import Deviation, summary
 from .domain import DEFAULT_FRACTION, BoundaryBudgetError, CoarseDomain, LostHolesError, coarse_domain, insert
 from .fit import (APPROX_WEIGHTS, corrected_location, cross_validated_weight, fit_domain, quadric_reference,
                   scan_location)
-from .holes import folded_holes, span_holes
+from .holes import SMALL_HOLE, folded_holes, small_holes, span_holes
 from .problem import CORNER_MODES
 from .refine import Round, measure, outline_gaps, pick_vertices
 
@@ -190,6 +190,10 @@ class _Options:
     budget_given: bool = True
     #: a tolerance holds for the outline's gaps too (:func:`~.refine.outline_gaps`), not only the scan's vertices
     outline_tolerance: bool = False
+    #: holes with at most this many vertices around are spanned before the map (0: every hole kept) ...
+    fill_holes: int = 0
+    #: ... and how many of the scan's were
+    filled: int = 0
 
     @property
     def outline(self) -> bool:
@@ -202,7 +206,7 @@ class _Options:
 
 
 def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corners, loss, weights,
-             outline_tolerance: bool = False) -> _Options:
+             outline_tolerance: bool = False, fill_holes: int = 0) -> _Options:
     """Check every option (clear messages naming the bad value) and derive the budget."""
     if tolerance is not None and tolerance_rel is not None:
         raise InputError("give tolerance (model units) or tolerance_rel (of the diagonal), not both")
@@ -218,6 +222,9 @@ def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corn
         raise InputError(f"loss must be one of {', '.join(LOSS_NAMES)}, got {loss!r}")
     if weights is not None and not isinstance(weights, FitWeights):
         raise InputError(f"weights must be a FitWeights or None, got {type(weights).__name__}")
+    if isinstance(fill_holes, bool) or not (int(fill_holes) == fill_holes and fill_holes >= 0):
+        raise InputError(f"fill_holes must be an integer >= 0 (the most vertices around a hole to span), got "
+                         f"{fill_holes!r}")
     if n_vertices is not None:
         budget = int(n_vertices)
     else:
@@ -225,7 +232,8 @@ def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corn
                   else max(DEFAULT_BUDGET_MIN, int(round(DEFAULT_BUDGET_FRACTION * n))))
     return _Options(tolerance=tol, budget=min(budget, n), refine=tol is not None, corners=corners, loss=loss,
                     weights=APPROX_WEIGHTS if weights is None else weights, auto=weights is None,
-                    budget_given=n_vertices is not None, outline_tolerance=bool(outline_tolerance))
+                    budget_given=n_vertices is not None, outline_tolerance=bool(outline_tolerance),
+                    fill_holes=int(fill_holes))
 
 
 def _smoothed(V: np.ndarray, F: np.ndarray, steps: int = PARAM_SMOOTHING) -> np.ndarray:
@@ -263,8 +271,8 @@ def _smoothed(V: np.ndarray, F: np.ndarray, steps: int = PARAM_SMOOTHING) -> np.
     return X
 
 
-def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str, span: list[np.ndarray] = ()
-               ) -> tuple[np.ndarray, np.ndarray, Any]:
+def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str, span: list[np.ndarray] = (),
+               fill: list[np.ndarray] = ()) -> tuple[np.ndarray, np.ndarray, Any]:
     """``(uv (n, 2) normalised, faces (m, 3) counter-clockwise, parameterization)``.
 
     Given ``uv`` (or ``param="uv"``: ``V[:, :2]``) is normalised by ``parameterize(method="uv")``
@@ -275,14 +283,19 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str, span: list[np.ndarr
     triangulation of the region it covers); one that covers part of the plane twice is replaced too.
     Holes the map turns inside out (:func:`~.holes.folded_holes`), and the loops ``span`` (holes a coarse
     domain lost: :class:`~.domain.LostHolesError`), are spanned by faces and the map made again: the
-    returned ``faces`` hold those faces too.
+    returned ``faces`` hold those faces too. The holes ``fill`` (``fill_holes``: :func:`~.holes.small_holes`)
+    are spanned before the map.
     """
     from trispline.param import parameterize
 
     if uv is not None or param == "uv":
+        if fill:
+            raise InputError("fill_holes needs trispline's own map (spanned holes are mapped with the rest): "
+                             "not with a given uv or param='uv'")
         uv = None if uv is None else as_array(uv, "uv", (V.shape[0], 2), finite=True)
         p = parameterize(V, F, method="uv", uv=uv, embedded=True)
         return p.uv, p.faces, p
+    F = span_holes(F, list(fill)) if fill else F
     X = _smoothed(V, F)
     p = _free_map(X, F, param)
     shut = folded_holes(p.uv, p.faces, Triangulation(p.uv, p.faces).boundary_loops) + list(span)
@@ -296,6 +309,9 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str, span: list[np.ndarr
         sizes = ", ".join(str(h.size) for h in shut[:5]) + (", ..." if len(shut) > 5 else "")
         p.messages[:0] = [*messages, f"spanned {len(shut)} holes of the scan ({sizes} vertices around) that the "
                           f"{method} map squeezed shut: each is far narrower than its vertices' spacing"]
+    if fill:
+        p.messages.insert(0, f"filled {len(fill)} holes of the scan with at most {max(h.size for h in fill)} "
+                             "vertices around (fill_holes): the surface spans them")
     return p.uv, p.faces, p
 
 
@@ -365,6 +381,7 @@ def approximate_surface(
     progress: Callable[[str, dict], None] | None = None,
     max_rounds: int = MAX_ROUNDS,
     outline_tolerance: bool = False,
+    fill_holes: int = 0,
 ) -> ApproxResult:
     """Fit a coarse C1 spline to every vertex of the scan, refined until within the tolerance.
 
@@ -393,6 +410,9 @@ def approximate_surface(
         the scan-to-surface deviation cannot see); more vertices along ragged outlines (the shared scans
         at 1e-3: 2.7-6.5x the tolerance without; beetle 337 -> 448 vertices, the 100k speed scan 6 -> 10
         rounds with it). Default: reported, not refined by
+    fill_holes : holes with at most this many vertices around (scanner dropouts) are spanned by faces before
+        the map, so that the surface goes over them instead of keeping each with three coarse vertices or
+        more (``stats["holes_filled"]``; 0, the default: every hole kept). Not with a given ``uv``
 
     Returns
     -------
@@ -406,22 +426,23 @@ def approximate_surface(
     F = as_array(F_in, "F", (None, 3), integer=True, min_rows=1)
     diagonal = float(np.linalg.norm(V.max(0) - V.min(0)))
     opt = _options(V.shape[0], diagonal, tolerance, tolerance_rel, n_vertices, corners, loss, weights,
-                   outline_tolerance)
+                   outline_tolerance, fill_holes)
     clock = StageTimer(None)
     report = progress or (lambda stage, info: None)
 
     def stage(name: str, **info) -> None:
         report(name, dict(info, seconds=clock(name)))
 
-    uv, faces, parameterization = _domain_uv(V, F, uv, param)
-    opt = dataclasses.replace(opt, warp=parameterization.method != "uv")
+    fill = small_holes(V, F, opt.fill_holes)
+    uv, faces, parameterization = _domain_uv(V, F, uv, param, fill=fill)
+    opt = dataclasses.replace(opt, warp=parameterization.method != "uv", filled=len(fill))
     stage("parameterize")
     try:
         dom, opt = _budgeted_domain(V, faces, uv, opt, max_rounds)
     except LostHolesError as exc:  # holes the map squeezed shut: spanned, and the map made again
         if parameterization.method == "uv":
             raise
-        uv, faces, parameterization = _domain_uv(V, F, None, param, span=exc.lost)
+        uv, faces, parameterization = _domain_uv(V, F, None, param, span=exc.lost, fill=fill)
         dom, opt = _budgeted_domain(V, faces, uv, opt, max_rounds)
     opt = dataclasses.replace(opt, reference=quadric_reference(dom, V))
     stage("domain")
@@ -661,9 +682,11 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
                  noise=float(dom.stats.noise), noise_correlation=float(dom.stats.noise_correlation), scale=nominal,
                  scan_vertices=int(V.shape[0]), outline_gap=_outline_gap(state, V))
     stats.update(data_weight=float(weights.data), cross_validated=opt.auto, corrections=state.corrections,
-                 hull_slivers=int(hull_sliver_faces(V, parameterization.faces).sum()))
+                 hull_slivers=int(hull_sliver_faces(V, parameterization.faces).sum()),
+                 holes_filled=opt.filled,
+                 small_holes=len(small_holes(V, parameterization.faces, SMALL_HOLE)))
     settings = dict(loss=opt.loss, corners=opt.corners, tolerance=opt.tolerance, budget=opt.budget, scale=nominal,
-                    data_weight=float(weights.data))
+                    data_weight=float(weights.data), fill_holes=opt.fill_holes)
     extras = surface_extras(dom, fit, V, stats, settings, weights)
     if fit.space.stats["snapped_vertices"]:  # uv moved onto exact crossings (spline.propagation.snap): by how much
         extras.update(domain_max_move=fit.space.stats["max_move"],
@@ -691,7 +714,7 @@ def surface_extras(dom: CoarseDomain, fit, V: np.ndarray, stats: dict, settings:
     (names in ``approx_deviation_names``): the inliers' deviation statistics, then ``rejected``,
     ``all_rms``, ``all_max``, ``outline_gap``; ``approx_loss``, ``approx_corners``, ``approx_tolerance`` (NaN:
     none), ``approx_budget``, ``approx_scale`` (NaN: plain loss), ``approx_noise``, ``approx_met``,
-    ``approx_stop``; ``free``, ``fit_weights`` as for an interpolating fit, and ``data_vertices``
+    ``approx_stop``, ``approx_fill_holes`` and ``approx_holes_filled`` (the setting, and the holes it spanned); ``free``, ``fit_weights`` as for an interpolating fit, and ``data_vertices``
     (the corners' scan vertices) when the corners interpolate them.
     """
     from dataclasses import asdict
@@ -707,7 +730,8 @@ def surface_extras(dom: CoarseDomain, fit, V: np.ndarray, stats: dict, settings:
         approx_corners=np.array(settings["corners"]), approx_tolerance=np.array(nan(settings["tolerance"])),
         approx_budget=np.array(int(settings["budget"])), approx_scale=np.array(nan(settings["scale"])),
         approx_noise=np.array(float(stats["noise"])), approx_met=np.array(bool(stats["met"])),
-        approx_stop=np.array(stats["stop"]), free=fit.free,
+        approx_stop=np.array(stats["stop"]), approx_fill_holes=np.array(int(settings.get("fill_holes", 0))),
+        approx_holes_filled=np.array(int(stats.get("holes_filled", 0))), free=fit.free,
         fit_weights=np.array(list(asdict(weights).values()), float))
     if settings["corners"] == "data":
         extras["data_vertices"] = V[dom.vertices]

@@ -22,12 +22,15 @@ from typing import Any, Callable
 from trispline.spline.tolerances import NOISE_CORRELATION_MAX, NOISE_SIGMAS
 
 from ..errors import UsageError
-from .common import EXIT_CHECK, EXIT_OK, PROG, UI, Interrupts, fmt, positive_float, positive_int
+from .common import EXIT_CHECK, EXIT_OK, PROG, UI, Interrupts, fmt, nonnegative_int, positive_float, positive_int
 
 __all__ = ["add_options", "requested", "run", "NOISE_SIGMAS"]
 
 #: The options that only make sense with an approximation.
-_MODE_OPTIONS = ("corners", "loss", "strict", "outline_tolerance")
+_MODE_OPTIONS = ("corners", "loss", "strict", "outline_tolerance", "fill_holes")
+#: Kept small holes (:data:`~trispline.fit.approx.holes.SMALL_HOLE` vertices or fewer) from which ``fit`` suggests
+#: ``--fill-holes``: one may be a feature, several are dropouts.
+SMALL_HOLES_ADVICE = 2
 #: FitWeights fields the approximation uses.
 _USED_WEIGHTS = ("bend", "data")
 
@@ -78,6 +81,9 @@ def add_options(p: argparse.ArgumentParser) -> None:
                    help="the tolerance holds for the outline too: where a coarse chord spans a notch or a bay of "
                         "the scan's outline (no data under the surface there), refine until the surface's boundary "
                         "is within it (more vertices along ragged outlines; default: reported, with a warning)")
+    g.add_argument("--fill-holes", type=nonnegative_int, default=None, metavar="K",
+                   help="span holes with at most K vertices around (scanner dropouts) so that the surface goes "
+                        "over them (default: every hole kept, each with three coarse vertices or more)")
     g.add_argument("--strict", action="store_true", default=None,
                    help="exit 3 (and write nothing) when the tolerance is not met within the budget")
 
@@ -144,7 +150,8 @@ def _approximate(args: argparse.Namespace, ui: UI, mesh: Any, weights: Any) -> t
         result = approximate_surface(mesh.V, mesh.F, tolerance=args.tolerance, tolerance_rel=args.tolerance_rel,
                                      n_vertices=args.vertices, corners=args.corners or "data",
                                      loss=args.loss or "huber", weights=weights, uv=mesh.uv, param=args.param,
-                                     progress=bar, outline_tolerance=bool(args.outline_tolerance))
+                                     progress=bar, outline_tolerance=bool(args.outline_tolerance),
+                                     fill_holes=args.fill_holes or 0)
         return result, time.perf_counter() - t0
     finally:
         bar.close()
@@ -161,6 +168,7 @@ def _summary(args: argparse.Namespace, result: Any, mesh: Any, seconds: float) -
         budget=st["budget"], met=st["met"], stop=st["stop"], deviation=st["deviation"],
         deviation_all=st["deviation_all"], outline_gap=st["outline_gap"], outline_tolerance=bool(args.outline_tolerance),
         rejected=st["rejected"], noise=st["noise"], hull_slivers=st["hull_slivers"],
+        holes_filled=st["holes_filled"], small_holes=st["small_holes"],
         noise_correlation=st["noise_correlation"], rounds=result.history,
         weights=dataclasses.asdict(result.weights), data_weight=st["data_weight"],
         cross_validated=st["cross_validated"], energies=result.energies, iterations=int(result.iterations),
@@ -218,6 +226,11 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
         ui.warn(f"the surface's boundary stands up to {st['outline_gap']:.3g} from the scan's outline, beyond the "
                 f"tolerance (a chord spans a notch or a hole's bay, where the scan has no data; the tolerance "
                 f"holds for the scan's vertices): --outline-tolerance refines there too")
+    from ..approx.holes import SMALL_HOLE
+
+    if st["small_holes"] >= SMALL_HOLES_ADVICE and not args.fill_holes:
+        ui.warn(f"the scan has {st['small_holes']} holes with at most {SMALL_HOLE} vertices around (dropouts?): the "
+                f"surface keeps each, with three coarse vertices or more; --fill-holes {SMALL_HOLE} spans them")
     if st["tolerance"] is not None and not st["met"]:
         what = (f"the tolerance {st['tolerance']:.3g} was not met within {st['budget']} vertices: the inliers' "
                 f"max deviation is {st['deviation']['max']:.3g}"

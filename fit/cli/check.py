@@ -172,7 +172,7 @@ def _stored_approximation(ex: dict) -> dict[str, Any]:
     names, values = [str(s) for s in np.atleast_1d(ex["approx_deviation_names"])], np.atleast_1d(ex["approx_deviation"])
     out: dict[str, Any] = dict(deviation=dict(zip(names, [float(v) for v in values])))
     for key in ("approx_loss", "approx_corners", "approx_tolerance", "approx_budget", "approx_met", "approx_stop",
-                "approx_noise"):
+                "approx_noise", "approx_holes_filled"):
         if key in ex:
             v = np.asarray(ex[key]).item()
             out[key[7:]] = None if isinstance(v, float) and not np.isfinite(v) else v
@@ -202,7 +202,8 @@ def _check_text(d: dict) -> str:
         tol = "no tolerance" if a.get("tolerance") is None else \
             f"tolerance {fmt(a['tolerance'])} {'met' if a.get('met') else 'NOT met'}"
         lines.append(f"  stored deviation of the scan (inliers): max {fmt(dev.get('max'))}, RMS {fmt(dev.get('rms'))} "
-                     f"({tol}; {int(dev.get('rejected', 0))} rejected; loss {a.get('loss')}, corners {a.get('corners')})")
+                     f"({tol}; {int(dev.get('rejected', 0))} rejected; loss {a.get('loss')}, corners {a.get('corners')}"
+                     + (f"; {a['holes_filled']} small holes of the scan spanned" if a.get("holes_filled") else "") + ")")
     fl = d["precision_floor"]
     if any(fl.values()):
         lines.append(f"  far from the origin (centre {np.round(d['centre'], 3).tolist()}): the stored coordinates' "
