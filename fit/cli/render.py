@@ -109,6 +109,19 @@ def _text(d: dict) -> str:
             f"resolution {stats['resolution']}, {d['backend']}, {d['seconds']:.1f} s{extra})")
 
 
+def _scan_vertices(extras: dict) -> int | None:
+    """How many vertices the scan of an approximation had (its stored inliers and rejected points), or None."""
+    import numpy as np
+
+    try:
+        names = [str(n) for n in np.atleast_1d(extras["approx_deviation_names"])]
+        values = np.atleast_1d(extras["approx_deviation"])
+        stats = dict(zip(names, values.tolist()))
+        return int(round(stats["count"] + stats.get("rejected", 0.0)))
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
 def run(args: argparse.Namespace, ui: UI | None = None) -> int:
     """Body of ``trispline render``; ``ui`` is the command line's output helper (made if None)."""
     from ..render import caption_text, draw, write_png
@@ -124,6 +137,10 @@ def run(args: argparse.Namespace, ui: UI | None = None) -> int:
 
         md = read_mesh(args.mesh)
         mesh = (md.V, md.F)
+        scanned = _scan_vertices(surface.extras)
+        if scanned is not None and scanned != md.V.shape[0]:
+            ui.warn(f"{args.mesh} has {md.V.shape[0]} vertices, the scan {args.surface} approximates had {scanned}: "
+                    "is it the same scan? (the deviation is drawn against the mesh given)")
     lines = {"auto": None, "on": True, "off": False}[args.patch_lines]
     t0 = time.perf_counter()
     with ui.stages(("draw", "write"), "render") as bar:

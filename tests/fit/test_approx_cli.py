@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from trispline.fit.datasets.synthetic import synthetic_scan
 
 import trispline.fit.cli as cli
 from trispline.fit.datasets.truth import truth_scan
@@ -55,6 +56,12 @@ def test_fit_tolerance_round_trip_check_and_render(scan, tmp_path, capsys):
                           "--backend", "matplotlib", "--size", "200x150", "--json")
     assert rc == 0, err and png.is_file()
     assert json.loads(stdout)["stats"]["data_vertices"] > 2000  # measured against the scan
+    assert "is it the same scan" not in err  # its inliers and rejected points: every vertex of the scan
+    other = tmp_path / "other.ply"
+    trimesh.Trimesh(*synthetic_scan(300, seed=4), process=False).export(other)
+    rc, _, err = run(capsys, "render", out, "-o", png, "--mode", "deviation", "--mesh", other,
+                     "--backend", "matplotlib", "--size", "200x150")
+    assert rc == 0 and f"vertices, the scan {out} approximates had {d['scan_vertices']}: is it the same scan" in err
     rc, _, err = run(capsys, "render", out, "-o", tmp_path / "x.png", "--mode", "deviation", "--backend",
                      "matplotlib")
     assert rc == 2 and "deviation needs a data mesh" in err  # an approximation's data is the scan
