@@ -5,6 +5,7 @@
     python benchmarks/bench_approximate.py --denoise [--surfaces bumps,cap] [--data-weights 100,300]
     python benchmarks/bench_approximate.py --compactness [--no-interpolation]
     python benchmarks/bench_approximate.py --speed [--no-million]
+    python benchmarks/bench_approximate.py --scattered | --dropouts
     python benchmarks/bench_approximate.py --zebra OUT.png [--only MESH]
 
 **Equal size** (the default table). Rows: every mesh in ``../shared/data`` that trispline
@@ -558,6 +559,76 @@ def scattered() -> None:
           "(start-up included); x: over the same tile without --repair")
 
 
+# ------------------------------------------------------------------------------------ scanner dropouts
+#: Faces of the dropout scan (``--dropouts``) and the one-face holes cut into it.
+DROPOUT_FACES, DROPOUT_HOLES = 40_000, 100
+
+
+def dropout_scan(holes: int) -> tuple[np.ndarray, np.ndarray]:
+    """``synthetic_scan(DROPOUT_FACES, seed=5, noise=1e-4)`` less ``holes`` interior faces, no two within a
+    ring of each other (each a hole of three vertices), picked in a seeded random order."""
+    from trispline.fit.datasets.synthetic import synthetic_scan
+    from trispline.spline.topology import outline_vertex_mask
+
+    V, F = synthetic_scan(DROPOUT_FACES, seed=5, noise=1e-4)
+    near = np.zeros(V.shape[0], bool)  # vertices of the picked faces and of the faces around them
+    near[F[outline_vertex_mask(F, V.shape[0])[F].any(1)]] = True
+    picked = []
+    for f in np.random.default_rng(0).permutation(F.shape[0]):  # a benchmark's set-up, not a hot path
+        if len(picked) == holes:
+            break
+        if not near[F[f]].any():
+            picked.append(f)
+            near[F[np.isin(F, F[f]).any(1)]] = True
+    return V, np.delete(F, picked, axis=0)
+
+
+def dropout_row(holes: int, fill: int) -> dict:
+    """``trispline fit SCAN --tolerance-rel 1e-3 [--fill-holes fill]`` on :func:`dropout_scan`."""
+    import tempfile
+
+    import trimesh
+
+    V, F = dropout_scan(holes)
+    with tempfile.TemporaryDirectory() as tmp:
+        scan, out = Path(tmp) / "scan.ply", Path(tmp) / "s.npz"
+        trimesh.Trimesh(V, F, process=False).export(scan)
+        cmd = [sys.executable, "-m", "trispline.fit", "fit", str(scan), "-o", str(out), "--tolerance-rel",
+               str(TOLERANCE_REL), "--json", "--quiet", *(["--fill-holes", str(fill)] if fill else [])]
+        t0 = time.perf_counter()
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+        size = out.stat().st_size if out.exists() else 0
+    if r.returncode != 0:
+        return {"error": (r.stderr.strip().splitlines() or ["?"])[-1][:100]}
+    d = json.loads(r.stdout)
+    return {"faces": int(F.shape[0]), "wall": wall, "verts": d["vertices"], "patches": d["patches"], "met": d["met"],
+            "max_tol": d["deviation"]["max"] / d["tolerance"], "gap_tol": d["outline_gap"] / d["tolerance"],
+            "filled": d["holes_filled"], "kb": size / 1e3}
+
+
+def dropouts() -> None:
+    """A scan with one-face dropouts: the whole scan, the dropouts kept (default), and spanned (``--fill-holes``)."""
+    head = (f"{'scan':<26} {'faces':>7} {'wall s':>7} {'verts':>6} {'patches':>7} {'met':>4} {'max/tol':>8} "
+            f"{'gap/tol':>8} {'filled':>6} {'kB':>6} {'x verts':>8}")
+    print(head)
+    print("-" * len(head))
+    whole = None
+    for name, holes, fill in (("whole", 0, 0), (f"{DROPOUT_HOLES} dropouts kept", DROPOUT_HOLES, 0),
+                              (f"{DROPOUT_HOLES} dropouts, --fill-holes 8", DROPOUT_HOLES, 8)):
+        r = child("dropout_row", holes, fill)
+        if "error" in r:
+            print(f"{name:<26} {r['error']}", flush=True)
+            continue
+        whole = whole or r
+        print(f"{name:<26} {r['faces']:>7} {r['wall']:>7.1f} {r['verts']:>6} {r['patches']:>7} "
+              f"{'yes' if r['met'] else 'no':>4} {r['max_tol']:>8.2f} {r['gap_tol']:>8.2f} {r['filled']:>6} "
+              f"{r['kb']:>6.0f} {r['verts'] / whole['verts']:>8.2f}", flush=True)
+    print(f"trispline fit SCAN -o s.npz --tolerance-rel {TOLERANCE_REL:g} [--fill-holes 8] on synthetic_scan("
+          f"{DROPOUT_FACES}, seed=5, noise=1e-4) less {DROPOUT_HOLES} interior faces (start-up included); "
+          "x verts: over the whole scan")
+
+
 # ---------------------------------------------------------------------------------------------- zebra
 def zebra(name: str, out: str) -> None:
     """Zebra stripes of a shared real scan: the interpolating fit beside the approximation at
@@ -643,6 +714,7 @@ def main(argv=None) -> int:
     ap.add_argument("--speed", action="store_true", help="trispline fit --tolerance-rel 1e-3 end to end")
     ap.add_argument("--corners", action="store_true", help="the outline's corners at small budgets")
     ap.add_argument("--scattered", action="store_true", help="scattered-point tiles with and without --repair")
+    ap.add_argument("--dropouts", action="store_true", help="a scan with one-face holes, kept and --fill-holes")
     ap.add_argument("--zebra", metavar="PNG", help="zebra picture of --only's first mesh (default beetle.off): "
                                                   "interpolated beside approximated at 1e-3")
     ap.add_argument("--child", help=argparse.SUPPRESS)
@@ -663,6 +735,8 @@ def main(argv=None) -> int:
         corners_table()
     elif args.scattered:
         scattered()
+    elif args.dropouts:
+        dropouts()
     else:
         equal_size(args)
     return 0
