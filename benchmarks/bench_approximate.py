@@ -609,7 +609,7 @@ def dropout_row(holes: int, fill: int) -> dict:
 
 def dropouts() -> None:
     """A scan with one-face dropouts: the whole scan, the dropouts kept (default), and spanned (``--fill-holes``)."""
-    head = (f"{'scan':<26} {'faces':>7} {'wall s':>7} {'verts':>6} {'patches':>7} {'met':>4} {'max/tol':>8} "
+    head = (f"{'scan':<30} {'faces':>7} {'wall s':>7} {'verts':>6} {'patches':>7} {'met':>4} {'max/tol':>8} "
             f"{'gap/tol':>8} {'filled':>6} {'kB':>6} {'x verts':>8}")
     print(head)
     print("-" * len(head))
@@ -618,10 +618,10 @@ def dropouts() -> None:
                               (f"{DROPOUT_HOLES} dropouts, --fill-holes 8", DROPOUT_HOLES, 8)):
         r = child("dropout_row", holes, fill)
         if "error" in r:
-            print(f"{name:<26} {r['error']}", flush=True)
+            print(f"{name:<30} {r['error']}", flush=True)
             continue
         whole = whole or r
-        print(f"{name:<26} {r['faces']:>7} {r['wall']:>7.1f} {r['verts']:>6} {r['patches']:>7} "
+        print(f"{name:<30} {r['faces']:>7} {r['wall']:>7.1f} {r['verts']:>6} {r['patches']:>7} "
               f"{'yes' if r['met'] else 'no':>4} {r['max_tol']:>8.2f} {r['gap_tol']:>8.2f} {r['filled']:>6} "
               f"{r['kb']:>6.0f} {r['verts'] / whole['verts']:>8.2f}", flush=True)
     print(f"trispline fit SCAN -o s.npz --tolerance-rel {TOLERANCE_REL:g} [--fill-holes 8] on synthetic_scan("
