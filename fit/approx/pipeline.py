@@ -37,9 +37,12 @@ from trispline.spline.polynomial import Polynomial
 from trispline.spline.surface import SplineSurface
 from trispline.spline.tolerances import MIN_RELATIVE_AREA_3D
 from trispline.spline.topology import Triangulation
+from trispline.spline.util.memory import format_bytes
 from trispline.spline.util.timer import StageTimer
 
 from ..energy.robust import LOSSES, TUNING, inlier_weight
+from ..errors import FactorMemoryError
+from ..limits import APPROX_BYTES_PER_VERTEX, approx_vertex_room, estimate_approx_bytes
 from ..solve import require_x64
 from ..weights import FitWeights
 from .analysis import SPIKE_LEVELS
@@ -236,6 +239,25 @@ def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corn
                     fill_holes=int(fill_holes))
 
 
+def _memory_budget(opt: _Options, n_faces: int) -> tuple[_Options, list[str]]:
+    """``(options, notes)``: the vertex budget checked against the memory available before any work
+    (:func:`~trispline.fit.limits.approx_vertex_room`): a budget given beyond it is refused, the default one
+    lowered to it (said in the notes); a scan too large for any budget is refused."""
+    room = approx_vertex_room(n_faces)
+    if room is None or opt.budget <= room:
+        return opt, []
+    need = estimate_approx_bytes(n_faces, opt.budget)
+    if opt.budget_given:
+        raise FactorMemoryError(
+            f"a budget of {opt.budget:,} vertices may need about {format_bytes(need)} (about "
+            f"{format_bytes(APPROX_BYTES_PER_VERTEX)} a coarse vertex), but only "
+            f"{format_bytes(estimate_approx_bytes(n_faces, room))} of memory are available: give at most "
+            f"{room:,} vertices", estimate=need, available=estimate_approx_bytes(n_faces, room))
+    note = (f"the default budget of {opt.budget:,} vertices was lowered to {max(room, 3):,}, what the available "
+            f"memory allows (about {format_bytes(APPROX_BYTES_PER_VERTEX)} a coarse vertex)")
+    return dataclasses.replace(opt, budget=max(room, 3)), [note]
+
+
 def _smoothed(V: np.ndarray, F: np.ndarray, steps: int = PARAM_SMOOTHING) -> np.ndarray:
     """The scan ``V (n, 3)`` as the parameterization sees it: spikes (farther than :data:`SPIKE_EDGES`
     median edge lengths from the mean of their neighbours, for an outline vertex its two outline
@@ -427,6 +449,7 @@ def approximate_surface(
     diagonal = float(np.linalg.norm(V.max(0) - V.min(0)))
     opt = _options(V.shape[0], diagonal, tolerance, tolerance_rel, n_vertices, corners, loss, weights,
                    outline_tolerance, fill_holes)
+    opt, notes = _memory_budget(opt, F.shape[0])
     clock = StageTimer(None)
     report = progress or (lambda stage, info: None)
 
@@ -435,6 +458,7 @@ def approximate_surface(
 
     fill = small_holes(V, F, opt.fill_holes)
     uv, faces, parameterization = _domain_uv(V, F, uv, param, fill=fill)
+    parameterization.messages[:0] = notes
     opt = dataclasses.replace(opt, warp=parameterization.method != "uv", filled=len(fill))
     stage("parameterize")
     try:

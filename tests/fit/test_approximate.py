@@ -7,6 +7,7 @@ import dataclasses
 
 import jax
 import importlib
+import re
 
 import numpy as np
 import pytest
@@ -661,3 +662,32 @@ def test_the_outline_gap_is_measured_and_reported():
     assert held.stats["met"] and held.stats["outline_gap"] <= tol and held.stats["deviation"]["max"] <= tol
     d = distance_to_mesh(held.surface.tessellate(8).vertices, V, F)
     assert np.mean(d > tol) < 0.01 and d.max() < 3 * tol  # was 29% of the surface beyond it, up to 19x
+
+
+def test_the_memory_an_approximation_needs_is_checked_before_the_work(monkeypatch, tmp_path, capsys):
+    """A budget the available memory cannot hold is refused (given) or lowered (the default), and a scan too large
+    for any budget is refused, all before the map (``fit.limits.approx_vertex_room``)."""
+    from trispline.fit import limits
+    from trispline.fit.cli import main
+    from trispline.fit.errors import FactorMemoryError
+
+    from trispline.fit.datasets.synthetic import synthetic_scan
+
+    V, F = synthetic_scan(1500)
+    room = 40  # coarse vertices the "available" memory holds
+    monkeypatch.setattr(limits, "available_memory", lambda: limits.estimate_approx_bytes(F.shape[0], room))
+    r = approximate_surface(V, F, tolerance_rel=1e-5)  # the default budget: lowered, said, not refused
+    assert r.stats["budget"] == room and r.stats["vertices"] <= room
+    assert re.match(rf"the default budget of \d+ vertices was lowered to {room}, what the available memory allows",
+                    r.parameterization.messages[0])
+    param = importlib.import_module("trispline.param.parameterize")
+    monkeypatch.setattr(param, "parameterize", lambda *a, **k: pytest.fail("parameterized"))
+    with pytest.raises(FactorMemoryError, match=rf"a budget of 50 vertices may need about .*give at most {room} "):
+        approximate_surface(V, F, tolerance_rel=1e-3, n_vertices=50)
+    monkeypatch.setattr(limits, "available_memory", lambda: limits.estimate_approx_bytes(F.shape[0], 0) - 1)
+    with pytest.raises(FactorMemoryError, match=rf"approximating a scan of {F.shape[0]:,} faces needs about"):
+        approximate_surface(V, F, tolerance_rel=1e-3)
+    path = tmp_path / "scan.obj"
+    path.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in V) + "".join(f"f {a+1} {b+1} {c+1}\n" for a, b, c in F))
+    assert main(["fit", str(path), "-o", str(tmp_path / "s.npz"), "--vertices", "50", "-q"]) == 2
+    assert "decimate or split the scan first" in capsys.readouterr().err and not (tmp_path / "s.npz").exists()
