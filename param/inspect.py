@@ -21,7 +21,7 @@ from .errors import MeshError
 from .hull import edge_lengths, hull_sliver_faces
 from .parameterize import parameterize
 from .repair_mesh import repair_mesh
-from .tables import boundary_loop_count, fan_counts, undirected_edges, vertex_components
+from .tables import boundary_loop_count, fan_counts, small_holes, undirected_edges, vertex_components
 from .validate import (ValidatedMesh, as_mesh_arrays, folded_edges, repeated_vertex_faces, validate_mesh,
                        zero_area_faces)
 
@@ -159,6 +159,7 @@ def _validation(V: np.ndarray, F: np.ndarray, keep_largest: bool, repair: bool,
     else:
         if not repair:
             rep.update({k: v for k, v in vm.report.items() if k in ("boundary_loops", "holes", "genus")})
+            rep["small_holes"] = len(small_holes(vm.boundary_loops))
         out = dict(accepted=True, problems=[], message="", repairs=list(vm.messages))
     if fixed is not None:
         out["mesh_repair"] = dict(changes=fixed.changes, messages=fixed.messages)

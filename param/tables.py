@@ -19,7 +19,11 @@ from scipy.sparse.csgraph import connected_components
 from trispline.spline.topology import halfedges, undirected_edges
 
 __all__ = ["loop_successors", "halfedges", "undirected_edges", "edge_pairs", "vertex_components", "corner_fans", "fan_counts",
-           "orientation_classes", "boundary_loop_count", "boundary_loops"]
+           "orientation_classes", "boundary_loop_count", "boundary_loops", "SMALL_HOLE", "small_holes"]
+
+#: Holes with at most this many vertices around are small (scanner dropouts: a few missing triangles):
+#: ``trispline info`` counts them, and an approximation can span them (``fill_holes``).
+SMALL_HOLE = 8
 
 
 def loop_successors(sizes: list[int]) -> np.ndarray:
@@ -143,3 +147,9 @@ def boundary_loops(V: np.ndarray, F: np.ndarray, he_edge: np.ndarray,
         loops.append(np.asarray(loop, np.int64))
     length = [np.linalg.norm(V[l] - V[np.roll(l, -1)], axis=1).sum() for l in loops]
     return [loops[i] for i in np.argsort(length, kind="stable")[::-1]]
+
+
+def small_holes(loops: list[np.ndarray], max_vertices: int = SMALL_HOLE) -> list[np.ndarray]:
+    """The holes among ``loops`` (:func:`boundary_loops`' order: the longest in 3D first, the outline, which is
+    never one of them) with at most ``max_vertices`` vertices around."""
+    return [h for h in loops[1:] if h.size <= max_vertices] if max_vertices >= 3 else []

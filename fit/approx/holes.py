@@ -16,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 
 from trispline.param import polygon_area
-from trispline.param.tables import boundary_loops
+from trispline.param.tables import SMALL_HOLE, boundary_loops
+from trispline.param.tables import small_holes as loop_small_holes
 from trispline.spline.topology import signed_areas, undirected_edges
 
 __all__ = ["SMALL_HOLE", "SPAN_HOLE_AREA", "folded_holes", "small_holes", "span_holes"]
@@ -28,14 +29,9 @@ __all__ = ["SMALL_HOLE", "SPAN_HOLE_AREA", "folded_holes", "small_holes", "span_
 SPAN_HOLE_AREA = 1e-3
 
 
-#: Holes with at most this many vertices around are counted as small (scanner dropouts: a few missing
-#: triangles); the command line suggests ``--fill-holes`` where there are some.
-SMALL_HOLE = 8
-
-
-def small_holes(V: np.ndarray, F: np.ndarray, max_vertices: int) -> list[np.ndarray]:
+def small_holes(V: np.ndarray, F: np.ndarray, max_vertices: int = SMALL_HOLE) -> list[np.ndarray]:
     """The hole loops of ``V (n, 3)``, ``F (m, 3)`` with at most ``max_vertices`` vertices around (surface on
-    their left; the longest loop in 3D is the outline and never one of them).
+    their left; the longest loop in 3D is the outline and never one of them: :func:`trispline.param.tables.small_holes`).
 
     A dropout of a few triangles must keep at least three coarse vertices and leaves a hole in the
     approximation; spanned first (:func:`span_holes`, ``approximate_surface(fill_holes=)``), the surface
@@ -43,8 +39,7 @@ def small_holes(V: np.ndarray, F: np.ndarray, max_vertices: int) -> list[np.ndar
     if max_vertices < 3:
         return []
     he, _, he_edge, count = undirected_edges(F, V.shape[0])
-    loops = boundary_loops(V, F, he_edge, count)
-    return [h for h in loops[1:] if h.size <= max_vertices]
+    return loop_small_holes(boundary_loops(V, F, he_edge, count), max_vertices)
 
 
 def folded_holes(uv: np.ndarray, faces: np.ndarray, loops: list[np.ndarray]) -> list[np.ndarray]:

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from trispline.param import DEFAULT_METHOD, METHODS, inspect_mesh
+from trispline.param.tables import SMALL_HOLE
 
 from .common import EXIT_CHECK, EXIT_OK, UI, add_common, fmt, one_line
 
@@ -62,7 +63,9 @@ def _info_text(d: dict) -> str:
         + (f" ({d['dropped_unreferenced_vertices']} unreferenced vertices dropped)"
            if d.get("dropped_unreferenced_vertices") else ""),
         f"  components {d['components']}, boundary edges {d['boundary_edges']}, "
-        f"boundary loops {d.get('boundary_loops', '?')}, holes {d.get('holes', '?')}, "
+        f"boundary loops {d.get('boundary_loops', '?')}, holes {d.get('holes', '?')}"
+        + (f" ({d['small_holes']} with at most {SMALL_HOLE} vertices around: fit --fill-holes {SMALL_HOLE} spans them "
+           "in an approximation)" if d.get("small_holes") else "") + ", "
         f"genus {d.get('genus', '?')}, Euler characteristic {d['euler_characteristic']}",
         f"  manifold {d['manifold']} (non-manifold edges {d['non_manifold_edges']}, "
         f"bowtie vertices {d.get('bowtie_vertices', '?')}), degenerate faces: {deg['zero_area']} zero-area, "

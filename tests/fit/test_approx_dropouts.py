@@ -91,3 +91,15 @@ def test_the_command_line_suggests_and_fills(tmp_path, capsys):
     rc = main(["fit", str(path), "-o", str(tmp_path / "c.npz"), "--fill-holes", "3"])
     assert rc == 2 and "--fill-holes needs --tolerance" in capsys.readouterr().err
     assert not (tmp_path / "c.npz").exists()
+
+
+def test_info_counts_the_small_holes(tmp_path, capsys):
+    from trispline.param import inspect_mesh
+
+    V, F = wavy_grid()
+    holed = np.delete(F, dropouts(F, 3), axis=0)
+    assert inspect_mesh(V, holed)["small_holes"] == 3 and inspect_mesh(V, F)["small_holes"] == 0
+    path = tmp_path / "drops.ply"
+    trimesh.Trimesh(V, holed, process=False).export(path)
+    assert main(["info", str(path)]) == 0
+    assert f"holes 3 (3 with at most {SMALL_HOLE} vertices around: fit --fill-holes" in capsys.readouterr().out
