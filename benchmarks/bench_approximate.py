@@ -63,6 +63,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -538,6 +539,19 @@ def scattered_row(n_points: int, repair: bool) -> dict:
             "max_tol": d["deviation"]["max"] / d["tolerance"], "rounds": len(d["rounds"])}
 
 
+def _rows(specs: list[tuple[str, str, tuple]], line: Callable[[str, dict, dict], str]) -> None:
+    """One table row per ``(label, task, params)``, each task run in a child; ``line(label, row, first)`` formats
+    a row against the first that ran (the ratios' base); a failed row prints its label and the error."""
+    first = None
+    for label, task, params in specs:
+        r = child(task, *params)
+        if "error" in r:
+            print(f"{label} {r['error']}", flush=True)
+            continue
+        first = first or r
+        print(line(label, r, first), flush=True)
+
+
 def scattered() -> None:
     """Scattered-point tiles (hull slivers along every side) as they come and with ``--repair`` (peeled)."""
     head = (f"{'tile':<12} {'faces':>8} {'repair':>6} {'wall s':>7} {'verts':>6} {'met':>4} {'max/tol':>8} "
@@ -545,16 +559,11 @@ def scattered() -> None:
     print(head)
     print("-" * len(head))
     for n in SCATTERED_POINTS:
-        plain = None
-        for repair in (False, True):
-            r = child("scattered_row", n, repair)
-            if "error" in r:
-                print(f"{n:<12} {'':>8} {'yes' if repair else 'no':>6} {r['error']}", flush=True)
-                continue
-            plain = plain or r
-            print(f"{n:<12} {r['faces']:>8} {'yes' if repair else 'no':>6} {r['wall']:>7.1f} {r['verts']:>6} "
+        _rows([(f"{n:<12} {'':>8} {'yes' if repair else 'no':>6}", "scattered_row", (n, repair)) for repair in (False, True)],
+              lambda label, r, plain: (
+                  f"{label.split()[0]:<12} {r['faces']:>8} {label.split()[-1]:>6} {r['wall']:>7.1f} {r['verts']:>6} "
                   f"{'yes' if r['met'] else 'no':>4} {r['max_tol']:>8.2f} {r['rounds']:>6} "
-                  f"{r['verts'] / plain['verts']:>8.2f} {r['wall'] / plain['wall']:>7.2f}", flush=True)
+                  f"{r['verts'] / plain['verts']:>8.2f} {r['wall'] / plain['wall']:>7.2f}"))
     print(f"trispline fit TILE -o s.npz --tolerance-rel {TOLERANCE_REL:g} [--repair] on scattered_tile(N, seed=0) "
           "(start-up included); x: over the same tile without --repair")
 
@@ -613,17 +622,13 @@ def dropouts() -> None:
             f"{'gap/tol':>8} {'filled':>6} {'kB':>6} {'x verts':>8}")
     print(head)
     print("-" * len(head))
-    whole = None
-    for name, holes, fill in (("whole", 0, 0), (f"{DROPOUT_HOLES} dropouts kept", DROPOUT_HOLES, 0),
-                              (f"{DROPOUT_HOLES} dropouts, --fill-holes 8", DROPOUT_HOLES, 8)):
-        r = child("dropout_row", holes, fill)
-        if "error" in r:
-            print(f"{name:<30} {r['error']}", flush=True)
-            continue
-        whole = whole or r
-        print(f"{name:<30} {r['faces']:>7} {r['wall']:>7.1f} {r['verts']:>6} {r['patches']:>7} "
+    specs = [("whole", 0, 0), (f"{DROPOUT_HOLES} dropouts kept", DROPOUT_HOLES, 0),
+             (f"{DROPOUT_HOLES} dropouts, --fill-holes 8", DROPOUT_HOLES, 8)]
+    _rows([(f"{name:<30}", "dropout_row", (holes, fill)) for name, holes, fill in specs],
+          lambda label, r, whole: (
+              f"{label} {r['faces']:>7} {r['wall']:>7.1f} {r['verts']:>6} {r['patches']:>7} "
               f"{'yes' if r['met'] else 'no':>4} {r['max_tol']:>8.2f} {r['gap_tol']:>8.2f} {r['filled']:>6} "
-              f"{r['kb']:>6.0f} {r['verts'] / whole['verts']:>8.2f}", flush=True)
+              f"{r['kb']:>6.0f} {r['verts'] / whole['verts']:>8.2f}"))
     print(f"trispline fit SCAN -o s.npz --tolerance-rel {TOLERANCE_REL:g} [--fill-holes 8] on synthetic_scan("
           f"{DROPOUT_FACES}, seed=5, noise=1e-4) less {DROPOUT_HOLES} interior faces (start-up included); "
           "x verts: over the whole scan")
