@@ -2,7 +2,7 @@
 the command line checks it before JAX starts and before the parameterization)."""
 from __future__ import annotations
 
-from trispline.spline.util.memory import available_memory, format_bytes
+from trispline.spline.util.memory import available_memory, format_bytes, resident_memory
 
 from .errors import FactorMemoryError
 
@@ -32,10 +32,15 @@ def estimate_approx_bytes(n_faces: int, n_vertices: int) -> int:
 
 
 def approx_vertex_room(n_faces: int, max_bytes: int | str | None = "available") -> int | None:
-    """The most coarse vertices an approximation of ``n_faces`` faces can grow to within ``max_bytes`` (as
-    :func:`check_fit_memory`; None: no limit known). Refuses (:class:`FactorMemoryError`) a scan whose own
-    share (:func:`estimate_approx_bytes` at no vertex) does not fit, before any work."""
-    limit = available_memory() if max_bytes == "available" else max_bytes
+    """The most coarse vertices an approximation of ``n_faces`` faces can grow to within ``max_bytes`` (None: no
+    limit known; ``"available"``: the memory available now plus what this process holds already, as the peaks
+    the estimate is fitted to include the runtime and the scan). Refuses (:class:`FactorMemoryError`) a scan
+    whose own share (:func:`estimate_approx_bytes` at no vertex) does not fit, before any work."""
+    if max_bytes == "available":
+        free = available_memory()
+        limit = None if free is None else free + resident_memory()
+    else:
+        limit = max_bytes
     if limit is None:
         return None
     scan = estimate_approx_bytes(n_faces, 0)

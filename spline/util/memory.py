@@ -33,6 +33,15 @@ def available_memory() -> int | None:
         return None
 
 
+def resident_memory() -> int:
+    """Bytes this process holds in memory now (``/proc/self/statm``'s resident pages; 0 where unknown)."""
+    try:
+        with open("/proc/self/statm") as fh:
+            return int(fh.read().split()[1]) * page_size()
+    except (OSError, ValueError, IndexError):  # pragma: no cover - not Linux
+        return 0
+
+
 def thread_page_faults(tids: set[int], prefixes: tuple[str, ...] = ()) -> int | None:
     """Pages first touched so far (minor page faults, ``/proc/self/task/*/stat``) by this process's
     threads ``tids`` and those whose name starts with one of ``prefixes``; None where unknown.

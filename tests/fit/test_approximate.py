@@ -675,6 +675,10 @@ def test_the_memory_an_approximation_needs_is_checked_before_the_work(monkeypatc
 
     V, F = synthetic_scan(1500)
     room = 40  # coarse vertices the "available" memory holds
+    monkeypatch.setattr(limits, "resident_memory", lambda: 10**8)  # what the process holds counts as available
+    monkeypatch.setattr(limits, "available_memory", lambda: limits.estimate_approx_bytes(F.shape[0], room) - 10**8)
+    assert limits.approx_vertex_room(F.shape[0]) == room
+    monkeypatch.setattr(limits, "resident_memory", lambda: 0)
     monkeypatch.setattr(limits, "available_memory", lambda: limits.estimate_approx_bytes(F.shape[0], room))
     r = approximate_surface(V, F, tolerance_rel=1e-5)  # the default budget: lowered, said, not refused
     assert r.stats["budget"] == room and r.stats["vertices"] <= room
