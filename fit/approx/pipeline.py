@@ -246,13 +246,12 @@ def _memory_budget(opt: _Options, n_faces: int) -> tuple[_Options, list[str]]:
     room = approx_vertex_room(n_faces)
     if room is None or opt.budget <= room:
         return opt, []
-    need = estimate_approx_bytes(n_faces, opt.budget)
     if opt.budget_given:
+        need, have = estimate_approx_bytes(n_faces, opt.budget), estimate_approx_bytes(n_faces, room)
         raise FactorMemoryError(
             f"a budget of {opt.budget:,} vertices may need about {format_bytes(need)} (about "
-            f"{format_bytes(APPROX_BYTES_PER_VERTEX)} a coarse vertex), but only "
-            f"{format_bytes(estimate_approx_bytes(n_faces, room))} of memory are available: give at most "
-            f"{room:,} vertices", estimate=need, available=estimate_approx_bytes(n_faces, room))
+            f"{format_bytes(APPROX_BYTES_PER_VERTEX)} a coarse vertex), but only {format_bytes(have)} of memory are "
+            f"available: give at most {room:,} vertices", estimate=need, available=have)
     note = (f"the default budget of {opt.budget:,} vertices was lowered to {max(room, 3):,}, what the available "
             f"memory allows (about {format_bytes(APPROX_BYTES_PER_VERTEX)} a coarse vertex)")
     return dataclasses.replace(opt, budget=max(room, 3)), [note]

@@ -28,7 +28,7 @@ __all__ = ["add_options", "requested", "run", "NOISE_SIGMAS"]
 
 #: The options that only make sense with an approximation.
 _MODE_OPTIONS = ("corners", "loss", "strict", "outline_tolerance", "fill_holes")
-#: Kept small holes (:data:`~trispline.fit.approx.holes.SMALL_HOLE` vertices or fewer) from which ``fit`` suggests
+#: Kept small holes (:data:`~trispline.param.tables.SMALL_HOLE` vertices or fewer) from which ``fit`` suggests
 #: ``--fill-holes``: one may be a feature, several are dropouts.
 SMALL_HOLES_ADVICE = 2
 #: FitWeights fields the approximation uses.
@@ -226,7 +226,7 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
         ui.warn(f"the surface's boundary stands up to {st['outline_gap']:.3g} from the scan's outline, beyond the "
                 f"tolerance (a chord spans a notch or a hole's bay, where the scan has no data; the tolerance "
                 f"holds for the scan's vertices): --outline-tolerance refines there too")
-    from ..approx.holes import SMALL_HOLE
+    from trispline.param.tables import SMALL_HOLE
 
     if st["small_holes"] >= SMALL_HOLES_ADVICE and not args.fill_holes:
         ui.warn(f"the scan has {st['small_holes']} holes with at most {SMALL_HOLE} vertices around (dropouts?): the "

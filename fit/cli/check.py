@@ -14,7 +14,7 @@ import numpy as np
 from trispline.spline.tolerances import CHECK_TOLERANCE, FLOOR_NEGLIGIBLE, PRECISION_MARGIN
 
 from .common import (
-    EXIT_CHECK, EXIT_OK, PROG, UI, add_common, fmt, load_surface, nonneg_float, positive_int,
+    EXIT_CHECK, EXIT_OK, PROG, UI, add_common, fmt, load_surface, nonneg_float, positive_int, stored_deviation,
 )
 
 __all__ = ["add_parser", "cmd_check", "surface_report", "PRECISION_MARGIN"]
@@ -169,8 +169,7 @@ def _stored_fit(ex: dict, corners: np.ndarray) -> dict[str, Any]:
 
 def _stored_approximation(ex: dict) -> dict[str, Any]:
     """An approximation's stored deviation statistics and settings (``approx_*`` keys)."""
-    names, values = [str(s) for s in np.atleast_1d(ex["approx_deviation_names"])], np.atleast_1d(ex["approx_deviation"])
-    out: dict[str, Any] = dict(deviation=dict(zip(names, [float(v) for v in values])))
+    out: dict[str, Any] = dict(deviation=stored_deviation(ex))
     for key in ("approx_loss", "approx_corners", "approx_tolerance", "approx_budget", "approx_met", "approx_stop",
                 "approx_noise", "approx_holes_filled"):
         if key in ex:

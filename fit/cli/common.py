@@ -265,6 +265,15 @@ def _number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
 
 
+def stored_deviation(extras: dict) -> dict[str, float] | None:
+    """An approximation's stored deviation statistics by name (the surface file's ``approx_deviation_names`` and
+    ``approx_deviation``: :func:`trispline.fit.approx.pipeline.surface_extras`), or None without them."""
+    if "approx_deviation_names" not in extras or "approx_deviation" not in extras:
+        return None
+    names = [str(s) for s in np.atleast_1d(extras["approx_deviation_names"])]
+    return dict(zip(names, [float(v) for v in np.atleast_1d(extras["approx_deviation"])]))
+
+
 def _integer(text: str, least: int, what: str) -> int:
     """argparse type: an integer >= ``least`` (``what`` names it in the message)."""
     try:

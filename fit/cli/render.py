@@ -21,7 +21,7 @@ from typing import Any, Callable, Sequence
 from ..errors import RenderError
 from .common import (
     EXIT_OK, PROG, UI, Parser, add_common, check_output, finite_float, leave, load_surface, positive_float,
-    positive_int, run_cli,
+    positive_int, run_cli, stored_deviation,
 )
 
 __all__ = ["add_parser", "run", "main"]
@@ -111,15 +111,11 @@ def _text(d: dict) -> str:
 
 def _scan_vertices(extras: dict) -> int | None:
     """How many vertices the scan of an approximation had (its stored inliers and rejected points), or None."""
-    import numpy as np
-
     try:
-        names = [str(n) for n in np.atleast_1d(extras["approx_deviation_names"])]
-        values = np.atleast_1d(extras["approx_deviation"])
-        stats = dict(zip(names, values.tolist()))
-        return int(round(stats["count"] + stats.get("rejected", 0.0)))
-    except (KeyError, TypeError, ValueError):
+        dev = stored_deviation(extras)
+    except (TypeError, ValueError):  # a damaged file: no hint, the picture still drawn
         return None
+    return None if dev is None or "count" not in dev else int(round(dev["count"] + dev.get("rejected", 0.0)))
 
 
 def run(args: argparse.Namespace, ui: UI | None = None) -> int:
