@@ -12,8 +12,11 @@ __all__ = ["FIT_BYTES_PER_FACE", "FIT_BASE_BYTES", "estimate_fit_bytes", "check_
 
 #: The interpolating fit's peak memory: a base (the runtime) plus this much per face, fitted to
 #: ``bench_fit_speed.py``'s in-process peaks: 2,406 MiB at 99,458 faces, 4,549-4,635 MiB at 199,712,
-#: 11,161 MiB at 500,000 (22.9 kB a face between the first and the last, 0.24 GB left at none).
-FIT_BYTES_PER_FACE = 22_000
+#: 11,161 MiB at 500,000 (22.9 kB a face between the first and the last, 0.24 GB left at none), and the
+#: command line's 22,722 MiB at 1,000,270 faces (a noisy scan whose map SLIM repaired: 23.6 kB a face; the
+#: factor's fill grows a little faster than the faces). 22 kB a face let that fit start with 22 GiB
+#: available and peak above it; 24 kB refuses it there.
+FIT_BYTES_PER_FACE = 24_000
 FIT_BASE_BYTES = 250_000_000
 
 
@@ -60,7 +63,7 @@ def estimate_fit_bytes(n_faces: int) -> int:
 def check_fit_memory(n_faces: int, max_bytes: int | str | None = "available") -> None:
     """Refuse (:class:`FactorMemoryError`) an interpolating fit of ``n_faces`` faces whose peak
     (:func:`estimate_fit_bytes`) exceeds ``max_bytes`` (as :func:`trispline.fit.solve.check_memory`), before any work: a
-    1M-face scan needs ~22 GB, and its parameterization alone can take minutes."""
+    1M-face scan needs ~24 GB, and its parameterization alone can take minutes."""
     refuse_above(estimate_fit_bytes(n_faces), available_memory() if max_bytes == "available" else max_bytes,
                  f"an interpolating fit of {n_faces:,} faces", f" (about {format_bytes(FIT_BYTES_PER_FACE)} a face)")
 

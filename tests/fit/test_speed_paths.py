@@ -442,7 +442,7 @@ def test_fit_refused_above_available_memory(monkeypatch, tmp_path):
 
 
 def test_fit_refused_by_its_size_before_the_parameterization(monkeypatch, tmp_path, capsys):
-    """The whole fit's peak (about 22 kB a face) against the available memory, before the map: a 1M-face
+    """The whole fit's peak (about 24 kB a face) against the available memory, before the map: a 1M-face
     scan's LSCM map and its repair took 1.5 min before the factor's check could refuse it."""
     from trispline.fit import limits
     from trispline.fit.cli import main
