@@ -28,7 +28,7 @@ from trispline.spline.topology import undirected_edges
 
 from .analysis import ScanAnalysis
 
-__all__ = ["Strips", "crease_edges", "crease_chains", "crease_strips", "CREASE_ANGLE", "STRIP_OFFSET",
+__all__ = ["Strips", "crease_edges", "crease_chains", "crease_strips", "near_creases", "CREASE_ANGLE", "STRIP_OFFSET",
            "MIN_OFFSET_SCAN", "MIN_CHAIN_SPACINGS", "MAX_NOISE_SHARE", "STATION_STEP"]
 
 #: A scan edge whose two faces' normals differ by more than this (degrees) is a crease edge.
@@ -73,6 +73,20 @@ def crease_edges(V: np.ndarray, F: np.ndarray, angle: float = CREASE_ANGLE) -> n
     f1, f2 = order[first[inner]] // 3, order[first[inner] + 1] // 3
     cos = np.einsum("ed,ed->e", fn[f1], fn[f2])
     return edges[inner][cos < np.cos(np.radians(angle))]
+
+
+def near_creases(V: np.ndarray, F: np.ndarray, analysis: ScanAnalysis, angle: float = CREASE_ANGLE) -> np.ndarray:
+    """``(n,)`` bool: the scan vertices on a crease edge (:func:`crease_edges`) or on a face with one: where a
+    C1 surface has to round the scan off, over at least the width of the patches beside the crease. None on
+    a noisy scan (``analysis``'s noise share above :data:`MAX_NOISE_SHARE`, as for the strips): there large
+    dihedral angles are noise (a bumps scan at noise 3e-3 of its diagonal: 99.8% of its vertices)."""
+    on = np.zeros(V.shape[0], bool)
+    if analysis.noise_share > MAX_NOISE_SHARE:
+        return on
+    on[crease_edges(V, F, angle).ravel()] = True
+    near = np.zeros(V.shape[0], bool)
+    near[F[on[F].any(axis=1)].ravel()] = True
+    return near
 
 
 def crease_chains(edges: np.ndarray, n: int) -> list[np.ndarray]:

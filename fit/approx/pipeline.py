@@ -50,6 +50,7 @@ from .deviation import Deviation, summary
 from .domain import DEFAULT_FRACTION, BoundaryBudgetError, CoarseDomain, LostHolesError, coarse_domain, insert
 from .fit import (APPROX_WEIGHTS, corrected_location, cross_validated_weight, fit_domain, quadric_reference,
                   scan_location)
+from .creases import near_creases
 from .holes import SMALL_HOLE, folded_holes, small_holes, span_holes
 from .problem import CORNER_MODES
 from .refine import Round, measure, outline_gaps, pick_vertices
@@ -138,7 +139,9 @@ class ApproxResult:
         data_weight, cross_validated (whether it was chosen so), corrections (the parameter corrections
         of the fit kept, :func:`_final`) and hull_slivers (the scan's outline faces that
         :func:`trispline.param.hull_sliver_faces` finds: where there are any, no coarse vertex can go
-        along the hull's long edges and ``repair_mesh`` peels them)
+        along the hull's long edges and ``repair_mesh`` peels them); where a tolerance was missed,
+        over_tolerance (the inliers over it) and over_near_creases (those of them on or beside a sharp
+        crease of the scan, :func:`~.creases.near_creases`, which a C1 surface rounds; else both 0)
     energies : dict term -> energy (``bend``, ``data``; data units); iterations : Gauss--Newton steps
     converged : bool; history : one record per round (vertices, max, rms, rejected, seconds)
     timings : dict stage -> seconds; parameterization : the Parameterization (``method="uv"`` with ``uv``)
@@ -688,6 +691,17 @@ def _outline_gap(state: Round, V: np.ndarray) -> float:
     return float(gap[~state.rejected].max(initial=0.0))
 
 
+def _crease_misses(V: np.ndarray, F: np.ndarray, state: Round, tolerance: float | None) -> dict[str, int]:
+    """``over_tolerance``: the inliers a missed ``tolerance`` leaves over it, ``over_near_creases``: how many of
+    them lie on or beside a sharp crease of a clean scan (:func:`~.creases.near_creases`), which a C1 surface
+    rounds: there more vertices may not help. Both 0 where the tolerance was met or not given."""
+    if tolerance is None:
+        return dict(over_tolerance=0, over_near_creases=0)
+    over = ~state.rejected & (state.deviation.distance > tolerance)
+    near = near_creases(V, F, state.dom.analysis)
+    return dict(over_tolerance=int(over.sum()), over_near_creases=int((over & near).sum()))
+
+
 def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, scale: np.ndarray | None,
             history: list[dict], stop: str,
             timings: dict, parameterization) -> ApproxResult:
@@ -704,6 +718,7 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
                  tolerance=opt.tolerance, budget=opt.budget, met=bool(met), stop=stop, rounds=len(history),
                  noise=float(dom.stats.noise), noise_correlation=float(dom.stats.noise_correlation), scale=nominal,
                  scan_vertices=int(V.shape[0]), outline_gap=_outline_gap(state, V))
+    stats.update(_crease_misses(V, parameterization.faces, state, opt.tolerance if not met else None))
     stats.update(data_weight=float(weights.data), cross_validated=opt.auto, corrections=state.corrections,
                  hull_slivers=int(hull_sliver_faces(V, parameterization.faces).sum()),
                  holes_filled=opt.filled,

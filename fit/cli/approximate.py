@@ -47,12 +47,27 @@ def vertex_budget(text: str) -> int:
 STALLED_SHARE = 0.8
 
 
+#: Where at least this share of the inliers over a missed tolerance lie on or beside sharp creases, the advice
+#: names the creases.
+CREASE_SHARE = 0.5
+
+
 def _advice(st: dict, history: list[dict], hull_slivers: int = 0) -> str:
-    """What to try where the tolerance was not met: peel the outline's hull slivers where it has them, else
-    more vertices, unless rounds with more did not help."""
+    """What to try where the tolerance was not met: peel the outline's hull slivers where it has them; where
+    the misses lie at sharp creases, say that a C1 surface rounds them; else more vertices, unless rounds with
+    more did not help."""
+    from ..approx.creases import CREASE_ANGLE
+
     if hull_slivers:
         return (f"the outline's {hull_slivers} hull slivers leave no scan vertex along its longest edges, where the "
                 "coarse faces cannot follow the data: --repair peels them")
+    over, creased = st.get("over_tolerance", 0), st.get("over_near_creases", 0)
+    if over and creased >= CREASE_SHARE * over:
+        which = ("the scan vertex over it lies on or beside a sharp crease" if over == 1 else
+                 f"{creased} of the {over} scan vertices over it lie on or beside sharp creases")
+        return (f"{which} (faces meeting at more than {CREASE_ANGLE:.0f} degrees), which a C1 surface rounds over the "
+                "patches beside them, at least a scan spacing wide: more vertices may not help there; raise the "
+                "tolerance, or approximate the pieces between the creases separately")
     most = max((h["vertices"] for h in history), default=st["vertices"])
     if st["vertices"] < STALLED_SHARE * most:
         return (f"the fit kept has {st['vertices']} vertices: the rounds up to {most} deviated more, so more "
@@ -168,6 +183,7 @@ def _summary(args: argparse.Namespace, result: Any, mesh: Any, seconds: float) -
         budget=st["budget"], met=st["met"], stop=st["stop"], deviation=st["deviation"],
         deviation_all=st["deviation_all"], outline_gap=st["outline_gap"], outline_tolerance=bool(args.outline_tolerance),
         rejected=st["rejected"], noise=st["noise"], hull_slivers=st["hull_slivers"],
+        over_tolerance=st["over_tolerance"], over_near_creases=st["over_near_creases"],
         holes_filled=st["holes_filled"], small_holes=st["small_holes"],
         noise_correlation=st["noise_correlation"], rounds=result.history,
         weights=dataclasses.asdict(result.weights), data_weight=st["data_weight"],

@@ -126,6 +126,12 @@ def test_the_advice_on_an_unmet_tolerance_follows_the_rounds():
     assert "the fit kept has 27 vertices: the rounds up to 100 deviated more" in _advice({"vertices": 27}, rounds)
     # an outline of hull slivers (scattered points triangulated): no budget helps along its edges, peeling does
     assert _advice({"vertices": 100}, rounds, hull_slivers=12).endswith("--repair peels them")
+    # most of the misses at sharp creases: a C1 surface rounds them, so the advice says so instead
+    creased = {"vertices": 100, "over_tolerance": 10, "over_near_creases": 6}
+    assert "6 of the 10 scan vertices over it lie on or beside sharp creases" in _advice(creased, rounds)
+    assert _advice({**creased, "over_near_creases": 4}, rounds) == "raise --vertices or the tolerance"
+    one = _advice({"vertices": 100, "over_tolerance": 1, "over_near_creases": 1}, rounds)
+    assert one.startswith("the scan vertex over it lies on or beside a sharp crease (faces meeting at more than 30")
 
 
 def test_help_lists_the_approximation_options(capsys):
@@ -188,3 +194,19 @@ def test_the_outline_gap_is_warned_about_and_held_on_request(tmp_path, capsys):
         d = json.loads(stdout)
         assert rc == 0 and d["met"] and ("boundary stands up to" in err) is warned
         assert (d["outline_gap"] > d["tolerance"]) is warned
+
+
+def test_a_tolerance_missed_at_sharp_creases_names_them(tmp_path, capsys):
+    """Three faces of a cube: a C1 surface rounds its 90-degree creases over a scan spacing or more, beyond 1e-3
+    of the diagonal at this spacing; the misses are counted at the creases and the warning names them."""
+    from trispline.fit.datasets.corner import cube_corner
+
+    path = tmp_path / "corner.ply"
+    trimesh.Trimesh(*cube_corner(20), process=False).export(path)
+    out = tmp_path / "s.npz"
+    rc, stdout, err = run(capsys, "fit", path, "-o", out, "--tolerance-rel", "1e-3", "--json")
+    assert rc == 0 and out.is_file(), err
+    d = json.loads(stdout)
+    assert not d["met"] and d["over_tolerance"] > 0
+    assert d["over_near_creases"] >= 0.5 * d["over_tolerance"]  # 80 of 90
+    assert "lie on or beside sharp creases (faces meeting at more than 30 degrees)" in err

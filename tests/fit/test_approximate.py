@@ -329,6 +329,7 @@ def test_a_small_clean_scan_is_refined_to_its_tolerance_by_default():
     F = np.concatenate([np.column_stack([q, q + 1, q + 11]), np.column_stack([q, q + 11, q + 10])])
     res = approximate_surface(V, F, tolerance_rel=1e-3)
     assert res.stats["met"] and res.stats["rejected"] == 0 and len(res.history) >= 2
+    assert res.stats["over_tolerance"] == res.stats["over_near_creases"] == 0
     assert res.stats["deviation"]["max"] <= 1e-3 * np.sqrt(2.04)
 
 
@@ -338,6 +339,8 @@ def test_unreachable_tolerance_finishes_and_reports():
     assert not res.stats["met"] and res.stats["stop"] in ("budget", "stalled")
     assert res.stats["vertices"] <= 60 and res.stats["deviation"]["max"] > res.stats["tolerance"]
     assert not bool(res.surface.extras["approx_met"])
+    # a smooth scan: its misses are not at creases (only where its noise makes a large dihedral angle)
+    assert 0 < res.stats["over_tolerance"] and res.stats["over_near_creases"] < 0.5 * res.stats["over_tolerance"]
 
 
 def test_weights_are_fit_weights_and_data_weight_smooths():
