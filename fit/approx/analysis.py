@@ -36,6 +36,8 @@ from trispline.param import face_areas_3d
 from trispline.spline.checks import as_array
 from trispline.spline.topology import outline_vertex_mask, signed_areas, undirected_edges
 
+from .creases import clean_crease_edges
+
 __all__ = ["ScanAnalysis", "analyse_scan", "edge_correlation", "POINTS_PER_CELL", "CURVATURE_POINTS", "SPIKE_LEVELS"]
 
 #: Vertices per cell aimed at (6 unknowns per coordinate: the fit averages over about 7x more points).
@@ -117,6 +119,8 @@ class ScanAnalysis:
         (:func:`edge_correlation`)
     spike_ring : ``(spike (r,), neighbour (r,))`` every mesh neighbour of every spike (for :meth:`isolated`);
     spike_outline : (s,) the spikes on the scan's outline
+    crease_edges : (e, 2) the scan's crease edges where it is clean (:func:`~.creases.clean_crease_edges`;
+        none on a noisy scan)
     """
 
     residual: np.ndarray
@@ -140,6 +144,15 @@ class ScanAnalysis:
     spike_ring: tuple[np.ndarray, np.ndarray] = field(
         default_factory=lambda: (np.empty(0, np.int64), np.empty(0, np.int64)))
     spike_outline: np.ndarray = field(default_factory=lambda: np.empty(0, np.int64))
+    crease_edges: np.ndarray = field(default_factory=lambda: np.empty((0, 2), np.int64))
+
+    @property
+    def crease(self) -> np.ndarray:
+        """(n,) bool: the vertices inside a crease line of a clean scan (two of ``crease_edges``): a feature where
+        the spline needs vertices, never an outlier (:meth:`isolated`), even where its residual makes it a spike.
+        A lone spike is none: every edge of its ring turns (its crease degree is its valence, its neighbours'
+        three), and neither are a line's ends and junctions."""
+        return np.bincount(self.crease_edges.ravel(), minlength=self.points.shape[0]) == 2
 
     @property
     def noise_share(self) -> float:
@@ -148,7 +161,7 @@ class ScanAnalysis:
         shared real scans' coarse estimate is 3.6-21x the fine one, a noisy generated scan's 1.05x). The
         preferences for calm vertices (the snap, refinement's candidates) are weighed by it: on clean data
         a vertex off its local quadric is a crease, where the spline needs a vertex, not noise."""
-        return float(min(1.0, (self.noise / max(self.coarse_noise, 1e-300)) ** 2))
+        return noise_share(self.noise, self.coarse_noise)
 
     @property
     def spike(self) -> np.ndarray:
@@ -162,13 +175,16 @@ class ScanAnalysis:
         outline; or in a group of at most :data:`CLUSTER_MAX` spikes comparable only with each other, none on
         the outline (a cluster of outliers). A feature the fit misses (a cliff or crease as sharp as the scan's
         spacing) is a line of such spikes, two neighbours along it comparable (one where it runs out at the
-        outline), and runs on into clean vertices that the fit misses as much."""
+        outline), and runs on into clean vertices that the fit misses as much. On a clean scan a vertex inside a
+        crease line (:attr:`crease`) is never isolated: where the fit's corner points interpolate the crease's
+        other vertices, a few of its spikes left between them look like a small group (three faces of a cube:
+        three vertices of a crease near its end were rejected, and refinement stalled there at 2.6x the tolerance)."""
         spike, neighbour = self.spike_ring
         n = distance.shape[0]
         comparable = ISOLATION * distance[neighbour] >= distance[spike]
         count = np.bincount(spike[comparable], minlength=n)
         count[self.spike_outline] += 1
-        alone = self.spike & (count <= 1)
+        alone = self.spike & (count <= 1) & ~self.crease
         # a small group of spikes, each comparable only with spikes of the group: a cluster of outliers
         ids = np.flatnonzero(self.spike)
         if ids.size:
@@ -182,7 +198,7 @@ class ScanAnalysis:
             size = np.bincount(label)[label]
             clean_near = np.bincount(pos[spike[other]], minlength=ids.size) > 0
             bad_group = np.bincount(label, clean_near | np.isin(ids, self.spike_outline)) > 0
-            alone[ids] |= (size <= CLUSTER_MAX) & ~bad_group[label]
+            alone[ids] |= (size <= CLUSTER_MAX) & ~bad_group[label] & ~self.crease[ids]
         return alone
 
     def cell_of(self, points: np.ndarray) -> np.ndarray:
@@ -461,6 +477,7 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
     dense = (suv > 0) & (cnt > 0)
     scan_spacing = _fill(np.sqrt(np.where(dense, suv / np.maximum(cnt, 1), 0.0)).reshape(coarse.shape),
                          dense.reshape(coarse.shape))
+    coarse_noise = MAD_TO_SIGMA * float(np.median(studc))
     return ScanAnalysis(residual=np.abs(loo), noise=noise, roughness=np.abs(loo) / np.maximum(level, 1e-300),
                         outlier=outlier, spike_ring=(i[ring], j[ring]),
                         spike_outline=np.flatnonzero(on_outline & spike),
@@ -468,8 +485,14 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
                         cell=_cell_index(uv, coarse.origin, coarse.step, coarse.shape), origin=coarse.origin,
                         step=coarse.step, shape=coarse.shape, curvature=kappa, scale=scale, scan_spacing=scan_spacing,
                         area=s3.reshape(coarse.shape), diagonal=diagonal, points=V,
-                        coarse_noise=MAD_TO_SIGMA * float(np.median(studc)),
-                        noise_correlation=edge_correlation(np.clip(loo, -3 * noise, 3 * noise), F))
+                        coarse_noise=coarse_noise,
+                        noise_correlation=edge_correlation(np.clip(loo, -3 * noise, 3 * noise), F),
+                        crease_edges=clean_crease_edges(V, F, noise_share(noise, coarse_noise)))
+
+
+def noise_share(noise: float, coarse_noise: float) -> float:
+    """:attr:`ScanAnalysis.noise_share` of the two noise estimates: ``(noise / coarse_noise)^2``, at most 1."""
+    return float(min(1.0, (noise / max(coarse_noise, 1e-300)) ** 2))
 
 
 def edge_correlation(x: np.ndarray, F: np.ndarray) -> float:

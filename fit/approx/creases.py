@@ -19,6 +19,7 @@ above :data:`MAX_NOISE_SHARE`) a large dihedral angle is noise, and there are no
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -26,9 +27,10 @@ from scipy.spatial import cKDTree
 
 from trispline.spline.topology import undirected_edges
 
-from .analysis import ScanAnalysis
+if TYPE_CHECKING:  # the analysis holds the crease edges (:func:`clean_crease_edges`)
+    from .analysis import ScanAnalysis
 
-__all__ = ["Strips", "crease_edges", "crease_chains", "crease_strips", "near_creases", "CREASE_ANGLE", "STRIP_OFFSET",
+__all__ = ["Strips", "crease_edges", "crease_chains", "crease_strips", "clean_crease_edges", "near_creases", "CREASE_ANGLE", "STRIP_OFFSET",
            "MIN_OFFSET_SCAN", "MIN_CHAIN_SPACINGS", "MAX_NOISE_SHARE", "STATION_STEP"]
 
 #: A scan edge whose two faces' normals differ by more than this (degrees) is a crease edge.
@@ -75,16 +77,20 @@ def crease_edges(V: np.ndarray, F: np.ndarray, angle: float = CREASE_ANGLE) -> n
     return edges[inner][cos < np.cos(np.radians(angle))]
 
 
-def near_creases(V: np.ndarray, F: np.ndarray, analysis: ScanAnalysis, angle: float = CREASE_ANGLE) -> np.ndarray:
-    """``(n,)`` bool: the scan vertices on a crease edge (:func:`crease_edges`) or on a face with one: where a
-    C1 surface has to round the scan off, over at least the width of the patches beside the crease. None on
-    a noisy scan (``analysis``'s noise share above :data:`MAX_NOISE_SHARE`, as for the strips): there large
-    dihedral angles are noise (a bumps scan at noise 3e-3 of its diagonal: 99.8% of its vertices)."""
-    on = np.zeros(V.shape[0], bool)
-    if analysis.noise_share > MAX_NOISE_SHARE:
-        return on
-    on[crease_edges(V, F, angle).ravel()] = True
-    near = np.zeros(V.shape[0], bool)
+def clean_crease_edges(V: np.ndarray, F: np.ndarray, noise_share: float, angle: float = CREASE_ANGLE) -> np.ndarray:
+    """``(e, 2)`` :func:`crease_edges` of a clean scan; none where its ``noise_share``
+    (:attr:`~.analysis.ScanAnalysis.noise_share`) exceeds :data:`MAX_NOISE_SHARE`: there large dihedral angles
+    are noise (a bumps scan at noise 3e-3 of its diagonal: 99.8% of its vertices beside one)."""
+    if noise_share > MAX_NOISE_SHARE:
+        return np.empty((0, 2), np.int64)
+    return crease_edges(V, F, angle)
+
+
+def near_creases(F: np.ndarray, analysis: ScanAnalysis) -> np.ndarray:
+    """``(n,)`` bool: the scan vertices on a crease of a clean scan (``analysis.crease``) or on a face with one:
+    where a C1 surface has to round the scan off, over at least the width of the patches beside the crease."""
+    on = analysis.crease
+    near = np.zeros(on.size, bool)
     near[F[on[F].any(axis=1)].ravel()] = True
     return near
 
@@ -163,10 +169,10 @@ def crease_strips(V: np.ndarray, F: np.ndarray, uv: np.ndarray, analysis: ScanAn
     """
     if analysis.noise_share > MAX_NOISE_SHARE:
         return Strips.empty()
-    edges = crease_edges(V, F, CREASE_ANGLE)
-    crease = np.zeros(V.shape[0], bool)
-    crease[edges.ravel()] = True
-    allowed = ~crease & ~on_boundary & ~analysis.spike
+    edges = analysis.crease_edges
+    on_crease = np.zeros(V.shape[0], bool)
+    on_crease[edges.ravel()] = True
+    allowed = ~on_crease & ~on_boundary & ~analysis.spike
     outline = cKDTree(uv[on_boundary]) if on_boundary.any() else None
     segments = []
     for chain in crease_chains(edges, V.shape[0]):  # a loop over the chains (a few dozen), not points

@@ -698,7 +698,7 @@ def _crease_misses(V: np.ndarray, F: np.ndarray, state: Round, tolerance: float 
     if tolerance is None:
         return dict(over_tolerance=0, over_near_creases=0)
     over = ~state.rejected & (state.deviation.distance > tolerance)
-    near = near_creases(V, F, state.dom.analysis)
+    near = near_creases(F, state.dom.analysis)
     return dict(over_tolerance=int(over.sum()), over_near_creases=int((over & near).sum()))
 
 

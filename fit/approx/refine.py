@@ -189,7 +189,8 @@ def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray
     but has no candidate passes its count to its edge neighbours. Its candidates are all its
     scan points but coarse vertices, rejected points and interior spikes (a scan boundary vertex
     may be one: the leave-one-out residual of the scan analysis is large at a corner of the
-    outline even on exact data) and points :func:`~.domain.insert` would skip (too near a vertex
+    outline even on exact data; a vertex inside a crease line of a clean scan,
+    :attr:`~.analysis.ScanAnalysis.crease`, is a feature: a candidate even where it is a spike) and points :func:`~.domain.insert` would skip (too near a vertex
     of their face), scored ``(d / tolerance) * min(1, b /
     INTERIOR_BARY + 0.25) / (1 + s (roughness / ROUGHNESS_SCALE)^2)`` (``s`` the scan analysis's
     :attr:`~.analysis.ScanAnalysis.noise_share`: on clean data a rough vertex is a crease; ``b`` the smallest
@@ -210,7 +211,7 @@ def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray
     limit = int(min(room, np.ceil((GROWTH - 1.0) * dom.stats.n_vertices)))
     on_loop = np.zeros(d.size, bool)
     on_loop[np.concatenate(dom.loops)] = True
-    usable = (~dom.analysis.spike | on_loop) & ~state.rejected
+    usable = (~dom.analysis.spike | on_loop | dom.analysis.crease) & ~state.rejected
     usable[dom.vertices] = False
     if exclude is not None:
         usable[exclude] = False
