@@ -35,7 +35,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("surface", metavar="SURFACE", help="surface file to export (.npz or .json)")
     p.add_argument("-o", "--output", metavar="OUT",
                    help="output; the suffix picks the format: .step .stp .iges .igs .3dm (exact CAD), .obj .ply "
-                        ".stl .glb (mesh), .json .npz (surface file), .png (shaded picture); default: none")
+                        ".stl .glb .off (mesh), .json .npz (surface file), .png (shaded picture); default: none")
     p.add_argument("--resolution", type=positive_int, default=None, metavar="N",
                    help=f"steps per patch edge of a mesh (N^2 triangles per patch) or samples of a picture "
                         f"(default: automatic, about {EXPORT_TRIANGLES / 1e6:g}M triangles, "
@@ -46,7 +46,7 @@ def add_parser(sub: Any) -> None:
                    help="CAD: two B-spline faces per patch instead of three (exact too; files about 12%% smaller; "
                         "default: three)")
     p.add_argument("--control-net", metavar="FILE",
-                   help="also write the control net (.obj .ply .stl .glb; default: none)")
+                   help="also write the control net (.obj .ply .stl .glb .off; default: none)")
     p.add_argument("--net-lines", action="store_true",
                    help="write the control net as line segments (OBJ 'l' records) instead of triangles "
                         "(default: triangles)")

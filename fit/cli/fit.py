@@ -125,13 +125,13 @@ def _add_fit_options(p: argparse.ArgumentParser, outputs: bool = True) -> None:
                           "picture: the renderer's own); a size beyond the available memory is refused up front")
     if outputs:
         p.add_argument("--mesh-out", metavar="FILE",
-                       help="also write the tessellated surface (.obj .ply .stl .glb; default: none), with a "
+                       help="also write the tessellated surface (.obj .ply .stl .glb .off; default: none), with a "
                             "warning when it will be large")
         p.add_argument("--image", metavar="PNG",
                        help="also render a shaded picture of the surface, as 'trispline render' draws it (.png; "
                             "default: none)")
         p.add_argument("--control-net", metavar="FILE",
-                       help="also write the control net as a mesh (.obj .ply .stl .glb; default: none)")
+                       help="also write the control net as a mesh (.obj .ply .stl .glb .off; default: none)")
     defaults = FitWeights()
     g = p.add_argument_group("fairness weights (FitWeights; no unit: only their ratios matter, the terms are "
                              "scaled alike for any mesh size; details in docs/fit.md)")

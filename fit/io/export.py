@@ -154,6 +154,8 @@ def _write_mesh(mesh: "trimesh.Trimesh", tmp: Path, suffix: str, normals: bool) 
         return
     if kind == "obj":
         kw: dict[str, Any] = dict(include_normals=normals, digits=15)
+    elif kind == "off":  # positions and triangles only: the format has no normals
+        kw = dict(digits=15)
     elif kind == "glb":
         kw = dict(include_normals=normals)
     else:
@@ -173,7 +175,7 @@ def export_mesh(
     outputs: AtomicOutputs | None = None,
 ) -> Path:
     """Write a plain triangle mesh ``V (nv, 3)``, ``F (nf, 3)`` (optional ``normals (nv, 3)``)
-    to OBJ/PLY/STL/GLB atomically, vertex order kept."""
+    to OBJ/PLY/STL/GLB/OFF atomically, vertex order kept."""
     suffix = check_export_path(path, MESH_FORMATS)
     mesh = _trimesh(np.asarray(V, float), np.asarray(F, np.int64), normals)
     return write_with(path, lambda tmp: _write_mesh(mesh, tmp, suffix, normals is not None), outputs)
@@ -185,9 +187,9 @@ def export_surface(
 ) -> Path:
     """Write ``surface`` to ``path``; the format follows the suffix.
 
-    ``.obj .ply .stl .glb``: the tessellated mesh (``resolution`` steps per patch
+    ``.obj .ply .stl .glb .off``: the tessellated mesh (``resolution`` steps per patch
     edge; None: :func:`.sizes.export_resolution` of the patch count) with analytic
-    normals, announced with a :class:`LargeExportWarning` when estimated above
+    normals (OFF has none), announced with a :class:`LargeExportWarning` when estimated above
     :data:`LARGE_EXPORT_BYTES`; ``.npz .json``: the surface file; ``.png``: a
     picture drawn by :func:`trispline.fit.render.draw` (``resolution`` samples per
     patch edge; None: the renderer's own), shaded and with the renderer's defaults
@@ -228,7 +230,7 @@ def export_control_net(
     surface: "SplineSurface", path: str | os.PathLike, *, lines: bool = False,
     outputs: AtomicOutputs | None = None,
 ) -> Path:
-    """Write the control net: a triangle mesh (OBJ/PLY/STL/GLB) or, with ``lines=True``,
+    """Write the control net: a triangle mesh (OBJ/PLY/STL/GLB/OFF) or, with ``lines=True``,
     its points and line segments as an OBJ file (``v`` and ``l`` records)."""
     suffix = check_export_path(path, (".obj",) if lines else MESH_FORMATS)
     if lines:

@@ -16,7 +16,7 @@ from ..errors import ExportFormatError
 __all__ = ["MESH_FORMATS", "SURFACE_FORMATS", "IMAGE_FORMATS", "CAD_FORMATS", "EXPORT_FORMATS", "check_export_path"]
 
 #: Tessellated-mesh formats (through trimesh).
-MESH_FORMATS = (".obj", ".ply", ".stl", ".glb")
+MESH_FORMATS = (".obj", ".ply", ".stl", ".glb", ".off")
 #: Surface file formats (docs/design.md §6).
 SURFACE_FORMATS = (".npz", ".json")
 #: Pictures (:mod:`trispline.fit.render`).

@@ -33,7 +33,7 @@ EXPORT_TRIANGLES = 1_500_000
 MAX_EXPORT_RESOLUTION = 8
 #: Bytes per vertex, per triangle and once per file of the binary mesh formats as trispline
 #: writes them (vertex normals included): PLY in float64, GLB in float32 with uint32 indices,
-#: STL 50 bytes per triangle. OBJ is text: see :func:`_obj_bytes`.
+#: STL 50 bytes per triangle. OBJ and OFF are text: see :func:`_obj_bytes`, :func:`_off_bytes`.
 MESH_BYTES = {".ply": (48, 13, 300), ".glb": (24, 12, 1100), ".stl": (0, 50, 84)}
 #: Bytes per patch of exact CAD (three B-spline faces per patch; two with ``merge``), measured on
 #: 979 patches (camelhead's 22,704 patches as STEP: 4% more, its entity numbers being longer).
@@ -73,11 +73,18 @@ def _obj_bytes(n_vertices: int, n_triangles: int, size: float) -> float:
     return n_vertices * vertex + n_triangles * triangle + 40
 
 
+def _off_bytes(n_vertices: int, n_triangles: int, size: float) -> float:
+    """OFF text as written here: a header, lines of three numbers with 15 decimals (``size``: the largest
+    absolute coordinate) and ``3 a b c`` lines."""
+    number = 17.5 + max(0.0, np.floor(np.log10(max(size, 1.0))))
+    return n_vertices * (3 * number + 3) + n_triangles * (2 + 3 * (_digits(n_vertices) + 1)) + 25
+
+
 def estimate_export_bytes(surface: "SplineSurface", path: str | os.PathLike, resolution: int | None = None,
                           *, merge: bool = False) -> int | None:
     """The size in bytes of the file ``path`` before anything is drawn or written.
 
-    A mesh (OBJ, PLY, STL, GLB) at ``resolution`` (None: :func:`export_resolution`), from the
+    A mesh (OBJ, PLY, STL, GLB, OFF) at ``resolution`` (None: :func:`export_resolution`), from the
     tessellation's counts, within about 5% of the file written; exact CAD (STEP, IGES, 3dm, ``merge``
     as in :func:`.cad.export_cad`) from :data:`CAD_BYTES`, within about 10%. None for surface files
     and pictures."""
@@ -91,8 +98,8 @@ def estimate_export_bytes(surface: "SplineSurface", path: str | os.PathLike, res
     tri = surface.triangulation
     r = export_resolution(tri.n_faces) if resolution is None else int(resolution)
     nv, nt = tessellation_counts(tri.n_vertices, tri.n_edges, tri.n_faces, r)
-    if suffix == ".obj":
+    if suffix in (".obj", ".off"):
         size = float(np.abs(np.asarray(surface.ctrl)).max()) if tri.n_faces else 1.0
-        return int(_obj_bytes(nv, nt, size))
+        return int((_obj_bytes if suffix == ".obj" else _off_bytes)(nv, nt, size))
     per_vertex, per_triangle, header = MESH_BYTES[suffix]
     return int(nv * per_vertex + nt * per_triangle + header)

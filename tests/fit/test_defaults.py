@@ -293,7 +293,7 @@ def test_export_resolution_follows_the_patch_count():
         assert r == 8 or n * r * r <= sizes.EXPORT_TRIANGLES < n * (r + 1) ** 2
 
 
-@pytest.mark.parametrize("suffix", [".obj", ".ply", ".stl", ".glb"])
+@pytest.mark.parametrize("suffix", [".obj", ".ply", ".stl", ".glb", ".off"])
 def test_estimated_export_size_is_within_five_percent(tmp_path, suffix):
     s = random_c1_surface(300, seed=3)
     for r in (1, 4):
