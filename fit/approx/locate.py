@@ -148,6 +148,14 @@ class ClampedLocator:
         other = np.where(pair[:, 0] == edge, pair[:, 1], pair[:, 0])
         return other, np.where(self.tri.edges[other, 0] == v, 0.0, 1.0)
 
+    def beside(self, edge: np.ndarray) -> np.ndarray:
+        """``(n, 3)`` each boundary edge of ``edge (n,)`` and the boundary edges beside it along the boundary, at
+        its two ends (itself again where a loop has no other)."""
+        edge = np.asarray(edge, np.int64)
+        at_ends = self._vertex_edges[self.tri.edges[edge]]  # (n, 2 ends, 2 edges)
+        other = np.where(at_ends[..., 0] == edge[:, None], at_ends[..., 1], at_ends[..., 0])
+        return np.column_stack([edge, np.where(other >= 0, other, edge[:, None])])
+
     def on_edge(self, edge: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Face ``(n,)``, barycentric coordinates ``(n, 3)`` and uv ``(n, 2)`` of the points at ``t (n,)``
         along boundary edges ``edge (n,)`` (from ``edges[edge, 0]`` to ``edges[edge, 1]``)."""

@@ -683,8 +683,8 @@ def _final(V: np.ndarray, F: np.ndarray, best: Round, opt: _Options, scale: np.n
 
 
 def _outline_gap(state: Round, V: np.ndarray) -> float:
-    """The largest distance of a kept scan boundary vertex from the surface at its nearest point of the
-    coarse boundary (:func:`~.refine.outline_gaps`): where a chord spans a notch of the outline, the surface
+    """The largest distance of a kept scan boundary vertex from the surface's boundary curve beside it
+    (:func:`~.refine.outline_gaps`): where a chord spans a notch of the outline, the surface
     stands this far from the scan, which the scan-to-surface deviation cannot see. A budget refines by it;
     a tolerance reports it (counted in the refinement it cost the 100k-face scan 4 more rounds, +5 s)."""
     gap = state.outline if state.outline is not None else outline_gaps(state.dom, V, state.fit)

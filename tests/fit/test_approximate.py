@@ -161,9 +161,9 @@ def test_a_noisy_scan_at_the_noise_floor_gets_the_whole_budget_at_once():
 
 
 def test_outline_gaps_are_the_distance_across_the_chords():
-    """On a plane (reproduced exactly, extensions included) a scan boundary vertex's gap is its uv
-    distance to the coarse boundary mapped by the plane's Jacobian; 0 off the outline and at the
-    coarse boundary vertices."""
+    """On a plane (reproduced exactly, extensions included) a scan boundary vertex's gap is its 3D distance
+    to the boundary curve, the image of the chords: between its uv distance to the coarse boundary and that
+    times the plane's largest stretch; 0 off the outline and at the coarse boundary vertices."""
     V, F, st = height_field(PLANE, n=2000)
     res = approximate_surface(V, F, uv=st, n_vertices=30, loss="l2", max_rounds=1)
     dom = res.domain
