@@ -58,8 +58,8 @@ ROUGHNESS_SCALE = 1.5
 #: Samples per coarse boundary edge of :func:`outline_gaps`' boundary curves: the polyline stands within
 #: ``L^2 kappa / (8 * 32^2)`` of the curve (6e-6 for an edge of 0.1 on a radius of 0.2).
 GAP_CURVE_SAMPLES = 32
-#: Scan boundary vertices per chunk of :func:`outline_gaps` (temporaries of about 40 MB).
-GAP_CHUNK = 20_000
+#: Scan boundary vertices per chunk of :func:`outline_gaps` (temporaries of about 20 MB each).
+GAP_CHUNK = 8192
 #: The scan faces' distance from a smooth surface, in curvature times squared spacing (:func:`faceting`): a
 #: circle's chord of length ``h`` stands ``k h^2 / 8`` from it, a triangle's centre about ``k h^2 / 6``;
 #: ``curvature`` is ``sqrt(k1^2 + k2^2)``, the larger of the two at most.

@@ -179,6 +179,13 @@ def test_outline_gaps_are_the_distance_across_the_chords():
     scale = np.linalg.norm(st[1] - st[0]) / np.linalg.norm(dom.scan_uv[1] - dom.scan_uv[0])  # uv normalisation
     ratio = gap[ids][far] / (across[far] * scale)
     assert ratio.min() >= 1.0 - 1e-9 and ratio.max() <= np.sqrt(1 + 0.3**2 + 0.2**2) + 1e-9
+    import trispline.fit.approx.refine as refine
+
+    chunk, refine.GAP_CHUNK = refine.GAP_CHUNK, 7  # chunks of 7 boundary vertices: the same gaps
+    try:
+        np.testing.assert_array_equal(outline_gaps(dom, V, _fit_of(res, V)), gap)
+    finally:
+        refine.GAP_CHUNK = chunk
 
 
 def test_tolerance_met_reports_what_was_reached():
