@@ -151,8 +151,11 @@ class ScanAnalysis:
         """(n,) bool: the vertices inside a crease line of a clean scan (two of ``crease_edges``): a feature where
         the spline needs vertices, never an outlier (:meth:`isolated`), even where its residual makes it a spike.
         A lone spike is none: every edge of its ring turns (its crease degree is its valence, its neighbours'
-        three), and neither are a line's ends and junctions."""
-        return np.bincount(self.crease_edges.ravel(), minlength=self.points.shape[0]) == 2
+        three), and neither are a line's ends and junctions, nor a spike on the outline, where its only two
+        interior edges may both turn (a grid's outline vertex lifted by 0.05 is an outlier, not a crease)."""
+        on = np.bincount(self.crease_edges.ravel(), minlength=self.points.shape[0]) == 2
+        on[self.spike_outline] = False
+        return on
 
     @property
     def noise_share(self) -> float:

@@ -612,6 +612,17 @@ def test_the_crease_lines_of_a_clean_scan_are_features_not_outliers():
     assert res.stats["met"] and res.stats["rejected"] == 0  # 203 vertices, 0.98x the tolerance
 
 
+def test_an_outlier_on_the_outline_of_a_clean_scan_is_no_crease():
+    """A grid's outline vertex has two interior edges, and lifted by 0.05 both turn: it is still an outlier
+    (rejected; it was kept as a crease vertex and fitted with 45 vertices instead of 18)."""
+    V, F = grid_scan(60, lambda x, y: 0.1 * np.sin(2 * x + 0.3) * np.cos(3 * y))
+    i = int(np.argmin(np.linalg.norm(V[:, :2] - [0.5, 0.0], axis=1)))
+    V[i, 2] += 0.05
+    res = approximate_surface(V, F, tolerance_rel=1e-3)
+    assert not res.domain.analysis.crease[i] and res.rejected[i] and res.stats["met"]
+    assert res.stats["vertices"] <= 25  # 18
+
+
 @pytest.mark.parametrize("sigma", [0.0, 1e-3])
 def test_a_small_cluster_of_outliers_is_rejected_whole(sigma):
     """Three adjacent outliers (a scanner's blob) are each other's comparable neighbours but no clean
