@@ -539,8 +539,8 @@ def scattered_row(n_points: int, repair: bool) -> dict:
             "max_tol": d["deviation"]["max"] / d["tolerance"], "rounds": len(d["rounds"])}
 
 
-def _rows(specs: list[tuple[str, str, tuple]], line: Callable[[str, dict, dict], str]) -> None:
-    """One table row per ``(label, task, params)``, each task run in a child; ``line(label, row, first)`` formats
+def _rows(specs: list[tuple[str, str, tuple]], line: Callable[[str, tuple, dict, dict], str]) -> None:
+    """One table row per ``(label, task, params)``, each task run in a child; ``line(label, params, row, first)`` formats
     a row against the first that ran (the ratios' base); a failed row prints its label and the error."""
     first = None
     for label, task, params in specs:
@@ -549,7 +549,7 @@ def _rows(specs: list[tuple[str, str, tuple]], line: Callable[[str, dict, dict],
             print(f"{label} {r['error']}", flush=True)
             continue
         first = first or r
-        print(line(label, r, first), flush=True)
+        print(line(label, params, r, first), flush=True)
 
 
 def scattered() -> None:
@@ -560,8 +560,8 @@ def scattered() -> None:
     print("-" * len(head))
     for n in SCATTERED_POINTS:
         _rows([(f"{n:<12} {'':>8} {'yes' if repair else 'no':>6}", "scattered_row", (n, repair)) for repair in (False, True)],
-              lambda label, r, plain: (
-                  f"{label.split()[0]:<12} {r['faces']:>8} {label.split()[-1]:>6} {r['wall']:>7.1f} {r['verts']:>6} "
+              lambda _, params, r, plain: (
+                  f"{params[0]:<12} {r['faces']:>8} {'yes' if params[1] else 'no':>6} {r['wall']:>7.1f} {r['verts']:>6} "
                   f"{'yes' if r['met'] else 'no':>4} {r['max_tol']:>8.2f} {r['rounds']:>6} "
                   f"{r['verts'] / plain['verts']:>8.2f} {r['wall'] / plain['wall']:>7.2f}"))
     print(f"trispline fit TILE -o s.npz --tolerance-rel {TOLERANCE_REL:g} [--repair] on scattered_tile(N, seed=0) "
@@ -625,7 +625,7 @@ def dropouts() -> None:
     specs = [("whole", 0, 0), (f"{DROPOUT_HOLES} dropouts kept", DROPOUT_HOLES, 0),
              (f"{DROPOUT_HOLES} dropouts, --fill-holes 8", DROPOUT_HOLES, 8)]
     _rows([(f"{name:<30}", "dropout_row", (holes, fill)) for name, holes, fill in specs],
-          lambda label, r, whole: (
+          lambda label, _, r, whole: (
               f"{label} {r['faces']:>7} {r['wall']:>7.1f} {r['verts']:>6} {r['patches']:>7} "
               f"{'yes' if r['met'] else 'no':>4} {r['max_tol']:>8.2f} {r['gap_tol']:>8.2f} {r['filled']:>6} "
               f"{r['kb']:>6.0f} {r['verts'] / whole['verts']:>8.2f}"))

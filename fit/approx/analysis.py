@@ -184,10 +184,11 @@ class ScanAnalysis:
         three vertices of a crease near its end were rejected, and refinement stalled there at 2.6x the tolerance)."""
         spike, neighbour = self.spike_ring
         n = distance.shape[0]
+        crease = self.crease
         comparable = ISOLATION * distance[neighbour] >= distance[spike]
         count = np.bincount(spike[comparable], minlength=n)
         count[self.spike_outline] += 1
-        alone = self.spike & (count <= 1) & ~self.crease
+        alone = self.spike & (count <= 1) & ~crease
         # a small group of spikes, each comparable only with spikes of the group: a cluster of outliers
         ids = np.flatnonzero(self.spike)
         if ids.size:
@@ -201,7 +202,7 @@ class ScanAnalysis:
             size = np.bincount(label)[label]
             clean_near = np.bincount(pos[spike[other]], minlength=ids.size) > 0
             bad_group = np.bincount(label, clean_near | np.isin(ids, self.spike_outline)) > 0
-            alone[ids] |= (size <= CLUSTER_MAX) & ~bad_group[label] & ~self.crease[ids]
+            alone[ids] |= (size <= CLUSTER_MAX) & ~bad_group[label] & ~crease[ids]
         return alone
 
     def cell_of(self, points: np.ndarray) -> np.ndarray:

@@ -64,11 +64,16 @@ def _digits(n: int) -> float:
     return total / max(n, 1)
 
 
+def _number_chars(size: float) -> float:
+    """Mean characters of a coordinate written with 15 decimals (``size``: the largest absolute coordinate):
+    a sign half the time, the integer digits, the point and the decimals."""
+    return 17.5 + max(0.0, np.floor(np.log10(max(size, 1.0))))
+
+
 def _obj_bytes(n_vertices: int, n_triangles: int, size: float) -> float:
     """OBJ text as written here: ``v`` and ``vn`` lines of three numbers with 15 decimals
     (``size``: the largest absolute coordinate) and ``f a//a b//b c//c`` lines."""
-    number = 17.5 + max(0.0, np.floor(np.log10(max(size, 1.0))))  # sign half the time, digits, point, 15 decimals
-    vertex = (2 + 3 * number + 1) + (3 + 3 * 17.5 + 1)
+    vertex = (2 + 3 * _number_chars(size) + 1) + (3 + 3 * 17.5 + 1)
     triangle = 2 + 3 * (2 * _digits(n_vertices) + 3)
     return n_vertices * vertex + n_triangles * triangle + 40
 
@@ -76,8 +81,7 @@ def _obj_bytes(n_vertices: int, n_triangles: int, size: float) -> float:
 def _off_bytes(n_vertices: int, n_triangles: int, size: float) -> float:
     """OFF text as written here: a header, lines of three numbers with 15 decimals (``size``: the largest
     absolute coordinate) and ``3 a b c`` lines."""
-    number = 17.5 + max(0.0, np.floor(np.log10(max(size, 1.0))))
-    return n_vertices * (3 * number + 3) + n_triangles * (2 + 3 * (_digits(n_vertices) + 1)) + 25
+    return n_vertices * (3 * _number_chars(size) + 3) + n_triangles * (2 + 3 * (_digits(n_vertices) + 1)) + 25
 
 
 def estimate_export_bytes(surface: "SplineSurface", path: str | os.PathLike, resolution: int | None = None,
