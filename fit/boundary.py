@@ -53,7 +53,7 @@ from trispline.spline.index import DEGREE, EXPONENTS
 from trispline.spline.topology import mean_edge_lengths, outline_vertex_mask
 
 from .agreement import fit_skill, local_trust, log_fade
-from .curves import bump_bernstein, loop_bulges
+from .curves import bump_shapes, loop_bulges
 from .progress import Report
 from .targets import rings_of
 
@@ -233,7 +233,8 @@ def outline_warp(V: np.ndarray, uv: np.ndarray, faces: np.ndarray, edges: tuple 
     outline faired as a curve (:func:`trispline.fit.curves.loop_bulges`); zero off the outline.
 
     On a face whose half-edge ``p -> q`` (local ``i -> j``) lies on the outline the shift is
-    ``n (B_320 a + B_230 b)``, ``B_320 = 10 l_i^3 l_j^2``, ``B_230 = 10 l_i^2 l_j^3``, ``n`` the
+    ``n (s_1 a + s_2 b)``, ``s`` the :func:`~trispline.fit.curves.bump_shapes` (on the edge ``B_320 =
+    10 l_i^3 l_j^2``, ``B_230 = 10 l_i^2 l_j^3``; quartic in the face where ``a = b``), ``n`` the
     edge's left normal: the warp vanishes with its first derivatives on the face's other two
     edges and at its corners, so the warped map is C1 with the unwarped one next to it and the
     corner frames keep their targets. ``V (nv, 3)``, ``uv (nv, 2)``, ``faces (nf, 3)``; ``edges``: their
@@ -257,7 +258,7 @@ def outline_warp(V: np.ndarray, uv: np.ndarray, faces: np.ndarray, edges: tuple 
         i, j = (k + 1) % 3, (k + 2) % 3
         e = uv[q] - uv[loop]
         nrm = np.stack([-e[:, 1], e[:, 0]], 1) / np.linalg.norm(e, axis=1)[:, None]
-        bump = bump_bernstein(lam[:, i].T, lam[:, j].T) @ np.stack([a, b], 1)[:, :, None]  # (m, 21, 1)
+        bump = bump_shapes(lam[:, i].T, lam[:, j].T) @ np.stack([a, b], 1)[:, :, None]  # (m, 21, 1)
         np.add.at(shift, f, (w[:, None, None] * bump) * nrm[:, None, :])
         touched.append(f)
     rows = np.unique(np.concatenate(touched))

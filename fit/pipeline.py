@@ -69,6 +69,9 @@ class FitResult:
     curved_outline : whether the boundary patches' targets followed the outline faired as a curve
         (the fit made its domain: :mod:`trispline.fit.boundary`); the re-fair
         (:mod:`trispline.fit.refair`) and :func:`~trispline.fit.refair.fairness_energy` need it
+    smooth_map : whether the map was smooth up to its outline (given uv, or a polynomial map of the
+        parameterization: :mod:`trispline.param.polymap`), so the outline took the given map's fits
+        (:func:`~trispline.fit.energy.context.term_context`); the re-fair needs it too
     """
 
     surface: SplineSurface
@@ -87,6 +90,7 @@ class FitResult:
     weights: FitWeights
     stats: dict = field(default_factory=dict)
     curved_outline: bool = False
+    smooth_map: bool = True
 
 
 def _check_mesh(V, F) -> tuple[np.ndarray, np.ndarray]:
@@ -177,8 +181,9 @@ def fit_surface(
         dp = DataPoints(dp.face, dp.bary, (dp.xyz - centre) / size)
     analysis = PatternAnalysis()  # the factor's analysis runs on the pattern while the terms are set up
     curved = parameterization is not None  # fit.boundary: a user's uv stays the surface's parameters
+    smooth_map = not curved or parameterization.smoothing.get("polynomial", 0) > 0
     prob = en.setup_problem((V - centre) / size, space, weights, dp, report=stage_reporter(progress, ASSEMBLE),
-                            on_pattern=analysis.start, curved_outline=curved)
+                            on_pattern=analysis.start, curved_outline=curved, smooth_map=smooth_map)
     clock(ASSEMBLE)
     release_free_heap()
     step = QuadraticStep(prob) if solver is None and not prob.nonlinear else None  # compiles meanwhile
@@ -207,7 +212,7 @@ def fit_surface(
             f"the fit did not converge in {steps} Gauss-Newton steps (max_steps={max_steps}); "
             "pass throw=False to inspect the result"
         )
-    return FitResult(**result, timings=clock.timings, curved_outline=curved)
+    return FitResult(**result, timings=clock.timings, curved_outline=curved, smooth_map=smooth_map)
 
 
 def _finish(V: np.ndarray, space: SplineSpace, prob: en.Problem, x: np.ndarray, energies: dict[str, float],

@@ -56,20 +56,21 @@ def _report(energies: dict[str, float]) -> dict[str, float]:
 
 
 def fairness_energy(space: SplineSpace, free: np.ndarray, V: np.ndarray, weights: FitWeights = FitWeights(),
-                    *, curved_outline: bool = False) -> dict[str, float]:
+                    *, curved_outline: bool = False, smooth_map: bool | None = None) -> dict[str, float]:
     """The quadratic fairness energy of :func:`fit_surface` (bend, tilt, local; data units).
 
     Parameters
     ----------
     space : SplineSpace, free : (n_free, 3), V : (nv, 3) data vertices
-    curved_outline : the fit's own (:attr:`~trispline.fit.pipeline.FitResult.curved_outline`)
+    curved_outline, smooth_map : the fit's own (:attr:`~trispline.fit.pipeline.FitResult.curved_outline`,
+        :attr:`~trispline.fit.pipeline.FitResult.smooth_map`)
 
     Returns
     -------
     dict with ``bend``, ``tilt``, ``local``, ``total``
     """
     terms = setup_terms(term_context(space, np.asarray(V, float), replace(weights, angle=0.0),
-                                     curved_outline=curved_outline))
+                                     curved_outline=curved_outline, smooth_map=smooth_map))
     free = np.asarray(free, float)
     frames = free[frame_ids(space, np.arange(space.tri.n_vertices))]
     return _report(term_energies(space.control_points(free), frames, terms))
@@ -114,10 +115,12 @@ class LocalRefairer:
     rings : default region size (>= 1)
     curved_outline : the fit's own (:attr:`~trispline.fit.pipeline.FitResult.curved_outline`): the
         halo's boundary patches get the fit's targets
+    smooth_map : the fit's own (:attr:`~trispline.fit.pipeline.FitResult.smooth_map`; default ``not
+        curved_outline``): the outline's local fits are the fit's
     """
 
     def __init__(self, editor: SplineEditor, V: np.ndarray, weights: FitWeights = FitWeights(), *,
-                 rings: int = 2, curved_outline: bool = False) -> None:
+                 rings: int = 2, curved_outline: bool = False, smooth_map: bool | None = None) -> None:
         if not isinstance(weights, FitWeights):
             raise InputError(f"weights must be a FitWeights, got {type(weights).__name__}")
         if weights.angle > 0:
@@ -129,6 +132,7 @@ class LocalRefairer:
         self.V = V
         self.weights = weights
         self.curved_outline = bool(curved_outline)
+        self.smooth_map = not self.curved_outline if smooth_map is None else bool(smooth_map)
         self.rings = self._check_rings(rings)
 
     @classmethod
@@ -139,7 +143,7 @@ class LocalRefairer:
                              "refit globally instead")
         ed = SplineEditor.from_fit(result)
         return cls(ed, result.free[result.space.corner_free], result.weights, rings=rings,
-                   curved_outline=result.curved_outline)
+                   curved_outline=result.curved_outline, smooth_map=result.smooth_map)
 
     @staticmethod
     def _check_rings(rings) -> int:
@@ -150,7 +154,7 @@ class LocalRefairer:
     def energy(self) -> dict[str, float]:
         """The global fairness energy of the current surface (``O(n)``; for checks)."""
         return fairness_energy(self.editor.space, self.editor.free, self.V, self.weights,
-                               curved_outline=self.curved_outline)
+                               curved_outline=self.curved_outline, smooth_map=self.smooth_map)
 
     def region(self, vertex: int, rings: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(faces, vertices)``: the patches within ``rings`` of ``vertex`` and their vertices."""
@@ -195,7 +199,8 @@ class LocalRefairer:
         faces, frame_vertices, halo = self._support(ids)
         clock("region")
         terms = setup_terms(term_context(space, self.V, self.weights, faces=faces, frame_vertices=frame_vertices,
-                                         halo=halo, curved_outline=self.curved_outline))
+                                         halo=halo, curved_outline=self.curved_outline,
+                                         smooth_map=self.smooth_map))
         clock("targets")
         A, c = ed.patch_matrix(faces, ids)  # ctrl = A x + c
         fids = frame_ids(space, frame_vertices)
@@ -225,11 +230,11 @@ class LocalRefairer:
         verts = np.unique(space.tri.faces[faces])
         frame_vertices = verts[np.isin(space.frame_free[verts, 0], ids)]
         halo = ed.vertex_faces(verts)
-        wider = targets.OUTLINE_RING and not self.curved_outline  # an outline vertex's fit: a ring more
+        wider = targets.OUTLINE_RING and self.smooth_map  # an outline vertex's fit: a ring more
         grow = self.weights.fit_rings - 1 + int(wider)
         for _ in range(grow):
             halo = ed.vertex_faces(np.unique(space.tri.faces[halo]))
-        if (targets.outline_fit_kernels(self.curved_outline)
+        if (targets.outline_fit_kernels(not self.smooth_map)
                 and space.tri.boundary_vertex_mask[space.tri.faces[halo]].any()):
             for _ in range(max(targets.OUTLINE_FIT_RINGS) - grow):  # the second fits near the outline: their rings
                 halo = ed.vertex_faces(np.unique(space.tri.faces[halo]))

@@ -25,6 +25,7 @@ from .domain import UVTransform, normalise
 from .errors import MeshError
 from .methods import MAPS, raw_map
 from .repair import polygon_area, repair_folds
+from .polymap import smoothest_map
 from .smooth import smooth_uv
 from .validate import ValidatedMesh, map_slivers, validate_mesh
 
@@ -40,6 +41,9 @@ DEFAULT_METHOD = "lscm"
 #: default: on the analytic surfaces of ``benchmarks/bench_accuracy3d.py`` it brought the fit's
 #: error to that of the true parameterization (docs/param.md, "Smoothing").
 DEFAULT_SMOOTH = True
+#: Whether the smoothed map gives way to a polynomial of the position in space that is smoother
+#: (:func:`~trispline.param.polymap.smoothest_map`) by default (docs/param.md, "Polynomial maps").
+DEFAULT_POLYNOMIAL = True
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,6 +123,7 @@ def parameterize(
     uv: np.ndarray | None = None,
     repair: bool = True,
     smooth: bool = DEFAULT_SMOOTH,
+    polynomial: bool = DEFAULT_POLYNOMIAL,
     embedded: bool = False,
     report: Report | None = None,
     validated: ValidatedMesh | None = None,
@@ -152,6 +157,11 @@ def parameterize(
         the discrete map's vertex-to-vertex irregularity (:mod:`trispline.param.smooth`); the
         result is checked for folds and falls back to the map itself. Not for ``method="uv"``
         (the given coordinates are kept as they are). Default :data:`DEFAULT_SMOOTH`.
+    polynomial : bool
+        With ``smooth``: the smoothed map (not the harmonic one, whose outline stays on its circle) gives
+        way to a fold-free polynomial of degree 2-4 of the position in space fitted to it, when that is measurably smoother
+        (:func:`~trispline.param.polymap.smoothest_map`; ``smoothing["polynomial"]`` names the degree).
+        Default :data:`DEFAULT_POLYNOMIAL`.
     embedded : bool
         The map must also be one-to-one: a fold-free map whose outline crosses itself (it covers part
         of the plane twice: :func:`~trispline.param.distortion.outline_crossings`) gives way to the least
@@ -180,6 +190,7 @@ def parameterize(
         raise MeshError("validated is not the validation of these V and F (their shapes differ)", ["validated"])
     vm = validate_mesh(V, F) if validated is None else validated
     report = report or silent
+    smooth = (smooth and polynomial) + bool(smooth)  # 0: no smoothing, 1: local fits, 2: also polynomial maps
     p = (_auto(vm, repair, smooth, report, embedded) if method == "auto"
          else _single(vm, method, uv, repair, smooth, report, embedded))
     report(1.0)
@@ -191,8 +202,9 @@ _MAP_DONE, _SMOOTH_DONE, _REPAIR_DONE = 0.3, 0.45, 0.95
 
 
 def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
-            smooth: bool = DEFAULT_SMOOTH, report: Report = silent, embedded: bool = False) -> Parameterization:
-    """:func:`parameterize` with one map of :data:`~trispline.param.methods.MAPS`."""
+            smooth: int = 2, report: Report = silent, embedded: bool = False) -> Parameterization:
+    """:func:`parameterize` with one map of :data:`~trispline.param.methods.MAPS` (``smooth``: 0 none, 1 the
+    local fits, 2 also a smoother polynomial map)."""
     messages = list(vm.messages)
     raw = raw_map(vm, method, uv, span(report, 0.0, _MAP_DONE))
     report(_MAP_DONE)
@@ -207,7 +219,7 @@ def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
         messages.append(f"the {method} map came out clockwise; mirrored u")
     smoothing: dict = {}
     if smooth and method != "uv":  # first: a smooth map often has none of the raw map's few folds
-        raw, smoothing = _smoothed(vm, raw, method, messages)
+        raw, smoothing = _smoothed(vm, raw, method, messages, smooth > 1)
     report(_SMOOTH_DONE)
     raw, repaired, folds = _unfold(vm, raw, method, uv is None, repair, messages,
                                    span(report, _SMOOTH_DONE, _REPAIR_DONE), embedded)
@@ -221,7 +233,7 @@ def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
                         f"{crossings} points): the fit does not mind, but a point (u, v) there names more "
                         "than one point of the surface")
     if smooth and repaired in ("harmonic", "slim"):  # a map that replaced a worse repair
-        smoothed, info = _smoothed(vm, raw, repaired, messages)
+        smoothed, info = _smoothed(vm, raw, repaired, messages, smooth > 1)
         crossing = embedded and outline_crossings(smoothed, vm.boundary_loops, tangle=TANGLE_SEGMENTS)
         if not crossing:  # else kept unsmoothed: the smoothing's small moves made it cross
             raw, smoothing = smoothed, info
@@ -240,12 +252,22 @@ def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
     )
 
 
-def _smoothed(vm: ValidatedMesh, raw: np.ndarray, method: str, messages: list[str]) -> tuple[np.ndarray, dict]:
-    """:func:`~trispline.param.smooth.smooth_uv` of a raw map (the harmonic map's outline stays on its circle);
-    ``info`` also counts the raw map's folds it removed (``unfolded``)."""
+def _smoothed(vm: ValidatedMesh, raw: np.ndarray, method: str, messages: list[str], polynomial: bool = True
+              ) -> tuple[np.ndarray, dict]:
+    """:func:`~trispline.param.smooth.smooth_uv` of a raw map (the harmonic map's outline stays on its circle),
+    then, with ``polynomial``, :func:`~trispline.param.polymap.smoothest_map` of that; ``info`` also counts the
+    raw map's folds it removed (``unfolded``) and names the polynomial's degree (``polynomial``, 0: none)."""
     keep = vm.boundary_loops[0] if method == "harmonic" else None
     folds_before = int(np.logical_or(*fold_mask(raw, vm.F)).sum())
     new, info = smooth_uv(vm.V, vm.F, raw, vm.boundary_loops, keep=keep)
+    info["polynomial"] = 0
+    if polynomial and keep is None:  # not the harmonic map: its outline stays on its circle
+        new, poly = smoothest_map(vm.V, vm.F, new)
+        info.update(poly)
+        if poly["polynomial"]:
+            info["fallback"] = False  # a fold-free map, whatever the local fits did
+            messages.append(f"the {method} map was replaced by the smoother polynomial of degree "
+                            f"{poly['polynomial']} of the position fitted to it")
     info["unfolded"] = folds_before if folds_before and not info["fallback"] else 0
     if info["unfolded"]:
         messages.append(f"smoothing the {method} map removed its {folds_before} folded triangles")
@@ -259,7 +281,7 @@ def _good(p: Parameterization) -> bool:
     return _folds(p) == 0 and p.distortion["score"] <= ANGLE_DISTORTION_WARN
 
 
-def _auto(vm: ValidatedMesh, repair: bool, smooth: bool, report: Report = silent,
+def _auto(vm: ValidatedMesh, repair: bool, smooth: int, report: Report = silent,
           embedded: bool = False) -> Parameterization:
     """``method="auto"``: LSCM when it is good, else the least distorted map, fold-free first."""
     tried: dict[str, Parameterization] = {}

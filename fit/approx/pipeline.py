@@ -340,15 +340,16 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str, span: list[np.ndarr
 
 
 def _free_map(X: np.ndarray, F: np.ndarray, param: str):
-    """The ``param`` map of the smoothed scan ``X``, one-to-one; a folded LSCM map replaced by the harmonic one."""
+    """The ``param`` map of the smoothed scan ``X``, one-to-one; a folded LSCM map replaced by the harmonic one.
+    No polynomial map (``parameterize(polynomial=False)``): not measured on the approximation's benchmarks."""
     from trispline.param import MeshError, parameterize
 
     try:
-        return parameterize(X, F, method=param, repair=param != "lscm", embedded=True)
+        return parameterize(X, F, method=param, repair=param != "lscm", embedded=True, polynomial=False)
     except MeshError as exc:
         if "folded" not in exc.kinds:
             raise
-        p = parameterize(X, F, method="harmonic", embedded=True)
+        p = parameterize(X, F, method="harmonic", embedded=True, polynomial=False)
         p.messages.append(f"{str(exc).splitlines()[0].split(':')[0]}; the harmonic map is used instead")
         return p
 

@@ -78,7 +78,7 @@ def frame_ids(space: SplineSpace, vertices: np.ndarray) -> np.ndarray:
 def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, faces: np.ndarray | None = None,
                  frame_vertices: np.ndarray | None = None, halo: np.ndarray | None = None,
                  data_points: DataPoints | None = None, report: Report | None = None,
-                 curved_outline: bool = False) -> TermContext:
+                 curved_outline: bool = False, smooth_map: bool | None = None) -> TermContext:
     """The context of patches ``faces`` and the frames of ``frame_vertices`` (default: all).
 
     Parameters
@@ -94,6 +94,9 @@ def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, face
         outline vertices' local fits take a ring more (:data:`~trispline.fit.targets.OUTLINE_RING`); the
         outline vertices and the next ring take second, wider fits either way
         (:func:`~trispline.fit.targets.outline_fit_kernels`)
+    smooth_map : the map is smooth up to its outline (given uv, or a polynomial map:
+        :mod:`trispline.param.polymap`): the outline fits are those of given uv (a ring more, the wider
+        second fits, no guard) even where the outline is curved; default ``not curved_outline``
     """
     tri = space.tri
     if halo is None:
@@ -106,14 +109,15 @@ def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, face
     fv = np.arange(tri.n_vertices) if frame_vertices is None else np.asarray(frame_vertices, np.int64)
     harea = tri.areas if halo is None else tri.areas[halo]
     w = weights
-    second = targets.outline_fit_kernels(curved_outline)
+    rough = curved_outline if smooth_map is None else not smooth_map  # the fit's own map, least accurate at its outline
+    second = targets.outline_fit_kernels(rough)
     return TermContext(
         weights=w, areas=tri.areas[faces], bary_gradients=tri.bary_gradients[faces],
         faces=renumber(tri.faces[faces]), uv=tri.uv[hv], V=V[hv], halo_faces=hfaces,
         fit=local_rbf_fit(tri.uv[hv], V[hv], hfaces, max_degree=w.fit_degree, rings=w.fit_rings,
-                          outline_ring=targets.OUTLINE_RING and not curved_outline, outline_fits=bool(second),
+                          outline_ring=targets.OUTLINE_RING and not rough, outline_fits=bool(second),
                           outline_kernels=second or None,
-                          outline_loo=targets.OWN_MAP_OUTLINE_LOO if curved_outline else None,
+                          outline_loo=targets.OWN_MAP_OUTLINE_LOO if rough else None,
                           report=span(report, 0.0, 0.6)),
         frame_vertices=renumber(fv), frame_scale=space.frame_scale[fv],
         vertex_area=vertex_areas(hfaces, harea, hv.size)[renumber(fv)], data_points=data_points,

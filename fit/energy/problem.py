@@ -89,7 +89,7 @@ def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
                   data_points: DataPoints | None = None, report: Report | None = None,
                   on_pattern: Callable[[Callable[[], sp.csr_array], Callable[[], np.ndarray | None]], None]
                   | None = None,
-                  curved_outline: bool = False) -> Problem:
+                  curved_outline: bool = False, smooth_map: bool | None = None) -> Problem:
     """Targets, residual arrays and normal equations for data vertices ``V (nv, 3)``.
 
     ``report``: progress (:mod:`trispline.fit.progress`): the local fits and targets take
@@ -98,7 +98,7 @@ def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
     (:func:`~.normal.upper_pattern`) and one that makes its elimination order
     (:func:`~trispline.fit.ordering.patch_ordering`); the factorisation's analysis makes both and starts
     on them in its background thread (:class:`~trispline.fit.solve.PatternAnalysis`).
-    ``curved_outline``: as in :func:`~.context.term_context`.
+    ``curved_outline``, ``smooth_map``: as in :func:`~.context.term_context`.
     """
     is_fixed = np.zeros(space.n_free, bool)
     is_fixed[space.corner_free] = True
@@ -111,7 +111,7 @@ def setup_problem(V: np.ndarray, space: SplineSpace, weights: FitWeights,
     if on_pattern is not None:  # made where it is used: PatternAnalysis makes it in its own thread
         on_pattern(lambda get=products: upper_pattern(*get()[1:3]), lambda get=products: patch_ordering(get()[2]))
     ctx = term_context(space, V, weights, data_points=data_points, report=span(report, 0.0, 0.7),
-                       curved_outline=curved_outline)
+                       curved_outline=curved_outline, smooth_map=smooth_map)
     terms = setup_terms(ctx)
     frame_pos = pos[frame_ids(space, ctx.frame_vertices)]
     parts = normal_parts(terms, space.tri.n_faces, frame_pos.size)

@@ -143,8 +143,10 @@ def test_bend_reference_is_the_mean_of_the_trusted_local_fits_and_none_without_l
 def test_boundary_curves_follow_the_outline_faired_as_a_curve(bench, monkeypatch):
     """The boundary patches' targets warped onto the outline faired as a curve (fit.boundary.outline_warp)
     where the fit makes its own domain: the boundary curves' distance to the true outline falls to about a
-    fifth (the best bump of a chord's sagitta), the band's distance to the surface stays (measured on this
-    cap: curve 4.3e-4 -> 8.1e-5, band 1.12e-6 -> 1.10e-6). A user's uv is kept as the surface's parameters."""
+    fifth (the best bump of a chord's sagitta; measured on this cap: 4.4e-4 -> 8.1e-5). Over this cap's
+    polynomial map (param.polymap) the warp costs the band some accuracy (measured 2.0e-9 -> 3.1e-8 with the
+    quartic bump of fit.curves.bump_shapes, 1.3e-7 with the quintic one), still a tenth of the smoothed
+    LSCM map's band without any warp (3.2e-7). A user's uv is kept as the surface's parameters."""
     from trispline.fit import boundary, fit_surface
 
     mesh = analytic_mesh("cap", 800)
@@ -153,6 +155,7 @@ def test_boundary_curves_follow_the_outline_faired_as_a_curve(bench, monkeypatch
     chords, given_chords = fit_surface(mesh.V, mesh.F), fit_surface(mesh.V, mesh.F, uv=mesh.params)
     (b_w, c_w), (b_c, c_c) = (_band_inner(mesh, r, bench, "curve") for r in (warped, chords))
     assert c_w < 0.25 * c_c
-    assert b_w < 1.05 * b_c
+    assert warped.parameterization.smoothing["polynomial"] > 0
+    assert b_c < b_w < 6e-8
     assert warped.c1_residual < 1e-12 and warped.max_interpolation_error == 0.0
     np.testing.assert_array_equal(given.ctrl, given_chords.ctrl)

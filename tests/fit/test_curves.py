@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial import Delaunay
 from trispline.fit.boundary import outline_warp
-from trispline.fit.curves import bump_basis, bump_bernstein, loop_bulges
+from trispline.fit.curves import bump_basis, bump_shapes, loop_bulges
 from trispline.spline.index import DEGREE, EXPONENTS
 from trispline.spline.topology import signed_areas
 
@@ -19,11 +19,23 @@ def _circle(n: int, radius: float = 1.0, jitter: float = 0.2, seed: int = 0) -> 
 def test_the_bump_is_the_two_middle_bernstein_polynomials_flat_at_both_ends():
     t = np.linspace(0, 1, 11)
     np.testing.assert_allclose(bump_basis(t), np.stack([10 * t**2 * (1 - t) ** 3, 10 * t**3 * (1 - t) ** 2], 1))
-    np.testing.assert_allclose(bump_bernstein(0.3, 0.5), [10 * 0.3**3 * 0.5**2, 10 * 0.3**2 * 0.5**3])
+    np.testing.assert_allclose(bump_shapes(0.3, 0.7), [10 * 0.3**3 * 0.7**2, 10 * 0.3**2 * 0.7**3])  # on the edge
     eps = 1e-6  # value and slope vanish at t = 0 and 1
     for end in (0.0, 1.0):
         assert np.abs(bump_basis(np.array([end]))).max() == 0.0
         assert np.abs(bump_basis(np.array([abs(end - eps)]))).max() < 1e-10
+
+
+def test_inside_a_face_the_even_bump_is_quartic_and_flat_on_the_other_edges():
+    """The bump of a = b is 10 a li^2 lj^2 (degree 4, so a quintic patch holds it exactly); both shapes
+    vanish with their gradient on the edges li = 0 and lj = 0."""
+    rng = np.random.default_rng(0)
+    lam = rng.dirichlet(np.ones(3), 50)
+    li, lj = lam[:, 0], lam[:, 1]
+    np.testing.assert_allclose(bump_shapes(li, lj).sum(-1), 10 * li**2 * lj**2, atol=1e-15)
+    eps, s = 1e-6, rng.uniform(0, 1, 20)
+    for edge in (lambda x: (np.zeros_like(x) + eps, x * (1 - eps)), lambda x: (x * (1 - eps), np.zeros_like(x) + eps)):
+        assert np.abs(bump_shapes(*edge(s))).max() < 10 * eps**2
 
 
 def test_a_circle_bulges_outward_by_the_best_bump_of_its_sagitta():

@@ -226,10 +226,12 @@ def test_a_global_solve_that_folds_gives_way_to_the_one_pass(monkeypatch):
 
 # ------------------------------------------------------------------------------ in parameterize
 def test_parameterize_smooths_by_default_and_reports_it():
+    """The local fits' smoothing (the polynomial map that may replace it: tests/param/test_param_polymap.py)."""
     V, F = bumpy_disk(800)
-    p = parameterize(V, F)
+    p = parameterize(V, F, polynomial=False)
     raw = parameterize(V, F, smooth=False)
-    assert set(p.smoothing) == {"moved_max", "reverted", "fallback", "method", "unfolded"} and raw.smoothing == {}
+    assert set(p.smoothing) == {"moved_max", "reverted", "fallback", "method", "unfolded", "polynomial"}
+    assert p.smoothing["polynomial"] == 0 and raw.smoothing == {}
     assert 0 < p.smoothing["moved_max"] < 0.05 and not p.smoothing["fallback"]
     assert 0 < np.abs(p.uv - raw.uv).max() < 0.01
     flipped, degenerate = fold_mask(p.uv, F)

@@ -1,0 +1,154 @@
+"""A map that is smooth by construction: uv as one low-degree polynomial of the position in space.
+
+    uv2, info = smoothest_map(V, F, uv, loops)   # (nv, 2): uv itself, or a polynomial map that beats it
+
+Why (issue 17): the spline interpolates the mesh over its map, so its accuracy is that of
+``x(uv)``, the surface read through the map. A discrete map (LSCM), even smoothed vertex by
+vertex (:mod:`trispline.param.smooth`), keeps an irregularity that the fit follows, most near the
+outline, where every local fit is one-sided. A polynomial ``f`` of the 3D position, restricted to
+a smooth surface, is a smooth map with no irregularity at all and no outline of its own: the
+least-squares polynomial of degree 2-4 of the map (:func:`polynomial_map`), where it is
+fold-free, is such a map close to it. Measured on ``bench_accuracy3d.py``'s sphere cap at 800
+vertices (fits with the outline treated as a given map's): the smoothed LSCM 1.2e-7 RMS, the
+true parameters 3.6e-8, the degree-2 polynomial of the LSCM 7.9e-9 (docs/param.md).
+
+Which map is kept is measured, not guessed: :func:`map_roughness` is how far the surface is
+from a local quartic of the map's uv over the 4-ring of a seeded sample of vertices (RMS over
+the local edge length). It ranked the candidates as the fits' errors did on the 8 analytic
+surfaces (polynomials of the map win on height-field-like surfaces; on a torus patch, a
+240-degree barrel and Enneper's surface no low degree follows the conformal map and the
+smoothed map stays). A polynomial map is kept when it is fold-free and its roughness is at most
+:data:`MARGIN` times the map's.
+"""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import scipy.sparse as sp
+
+from .distortion import fold_mask
+from .tables import undirected_edges
+from .validate import face_aspects
+
+__all__ = ["ASPECT_GROWTH", "DEGREES", "MARGIN", "SAMPLE", "ROUGH_RINGS", "ROUGH_DEGREE", "map_roughness", "polynomial_map",
+           "smoothest_map"]
+
+#: Degrees of the polynomial maps tried (a degree-6 map of the cap was 10x rougher than degree 2-4: on a
+#: quadric or a quartic surface the monomials of higher degree are dependent and the fit wiggles).
+DEGREES = (2, 3, 4)
+#: A polynomial map is kept when its :func:`map_roughness` is at most this times the map's.
+MARGIN = 0.8
+#: ... and when its thinnest triangle (longest edge over height) is at most this times the map's.
+ASPECT_GROWTH = 2.0
+#: Vertices (a seeded sample) whose neighbourhoods :func:`map_roughness` measures.
+SAMPLE = 2000
+#: Rings of a sampled vertex's neighbourhood and the degree of its local fit in :func:`map_roughness`.
+ROUGH_RINGS = 4
+ROUGH_DEGREE = 4
+#: Relative eigenvalue below which a direction of the monomials' normal matrix is dropped (on a sphere
+#: ``x^2 + y^2 + z^2`` is constant: without the cut the coefficients cancel to rounding noise).
+EIG_CUT = 1e-20
+#: Rows of the 3D monomials formed at once.
+CHUNK = 1 << 16
+
+
+def _monomials3(X: np.ndarray, degree: int) -> np.ndarray:
+    """``(n, p)`` every monomial of ``X (n, 3)`` up to ``degree``, constant first."""
+    cols = [np.ones(len(X))]
+    for k in range(1, degree + 1):
+        cols += [np.prod(X[:, list(c)], axis=1) for c in itertools.combinations_with_replacement(range(3), k)]
+    return np.stack(cols, 1)
+
+
+def polynomial_map(V: np.ndarray, uv: np.ndarray, degree: int) -> np.ndarray:
+    """``(nv, 2)`` the least-squares polynomial of degree ``degree`` in the (centred, scaled) positions
+    ``V (nv, 3)`` that best fits ``uv (nv, 2)``, at the vertices: minimum-norm where the monomials are
+    dependent on the surface (:data:`EIG_CUT`)."""
+    centre = 0.5 * (V.min(0) + V.max(0))
+    X = (V - centre) / max(float(np.ptp(V, axis=0).max()), np.finfo(float).tiny)
+    p = _monomials3(X[:1], degree).shape[1]
+    G, B = np.zeros((p, p)), np.zeros((p, 2))
+    for lo in range(0, len(X), CHUNK):
+        A = _monomials3(X[lo:lo + CHUNK], degree)
+        G += A.T @ A
+        B += A.T @ uv[lo:lo + CHUNK]
+    w, Q = np.linalg.eigh(G)
+    keep = w > EIG_CUT * max(w[-1], np.finfo(float).tiny)
+    coef = Q[:, keep] @ ((Q[:, keep].T @ B) / w[keep, None])
+    return np.concatenate([_monomials3(X[lo:lo + CHUNK], degree) @ coef for lo in range(0, len(X), CHUNK)])
+
+
+def _sample_rings(F: np.ndarray, nv: int, centre: np.ndarray, rings: int) -> sp.csr_matrix:
+    """``(k, nv)`` CSR: row ``i`` marks the vertices within ``rings`` edges of ``centre[i]`` (itself too)."""
+    _, edges, _, _ = undirected_edges(F, nv)
+    A = sp.csr_matrix((np.ones(2 * len(edges)), (edges.ravel(), edges[:, ::-1].ravel())), shape=(nv, nv))
+    A = A + sp.identity(nv, format="csr")
+    R = sp.csr_matrix((np.ones(centre.size), (np.arange(centre.size), centre)), shape=(centre.size, nv))
+    for _ in range(rings):
+        R = R @ A
+        R.data[:] = 1.0
+    R.sort_indices()
+    return R
+
+
+def map_roughness(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, sample: int = SAMPLE, seed: int = 0) -> float:
+    """How far the surface ``V (nv, 3)`` read through the map ``uv (nv, 2)`` of ``F (nf, 3)`` is from smooth:
+    the RMS, over a seeded sample of vertices, of the residual of the least-squares polynomial of degree
+    :data:`ROUGH_DEGREE` in uv through the positions of the vertex's :data:`ROUGH_RINGS`-ring, over its mean
+    distance to them (rows with too few points for that degree take degree 3, fewer still are skipped)."""
+    nv = len(V)
+    centre = np.sort(np.random.default_rng(seed).choice(nv, min(sample, nv), replace=False))
+    R = _sample_rings(np.asarray(F, np.int64), nv, centre, ROUGH_RINGS)
+    counts = np.diff(R.indptr)
+    nbr = np.zeros((centre.size, int(counts.max())), np.int64)
+    valid = np.arange(nbr.shape[1])[None, :] < counts[:, None]
+    nbr[valid] = R.indices
+    d = np.where(valid[..., None], uv[nbr] - uv[centre][:, None, :], 0.0)
+    d /= np.maximum(np.linalg.norm(d, axis=2).max(1), np.finfo(float).tiny)[:, None, None]
+    dx = np.where(valid[..., None], V[nbr] - V[centre][:, None, :], 0.0)
+    h = np.linalg.norm(dx, axis=2).sum(1) / np.maximum(counts - 1, 1)
+    out, upper = [], np.inf
+    for degree in (ROUGH_DEGREE, ROUGH_DEGREE - 1):  # each row the highest degree it holds twice over
+        need = (degree + 1) * (degree + 2)
+        rows = np.flatnonzero((counts >= need) & (counts < upper))
+        upper = need
+        if not rows.size:
+            continue
+        x, y = d[rows, :, 0], d[rows, :, 1]
+        A = np.stack([x**i * y**j for i in range(degree + 1) for j in range(degree + 1 - i)], -1)
+        A *= valid[rows][..., None]
+        res = dx[rows] - np.matmul(A, _batched_lstsq(A, dx[rows]))
+        out.append(np.sqrt((res**2).sum((1, 2)) / counts[rows]) / np.maximum(h[rows], np.finfo(float).tiny))
+    r = np.concatenate(out) if out else np.zeros(0)
+    return float(np.sqrt(np.mean(r**2))) if r.size else 0.0
+
+
+def _batched_lstsq(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``(n, p, d)`` least-squares solutions of ``A (n, m, p) c = B (n, m, d)`` by the normal equations
+    (``A``'s coordinates are O(1): a vertex's neighbours scaled to the unit disk), a relative ridge of
+    ``1e-12`` where the points cannot support the degree."""
+    At = A.transpose(0, 2, 1)
+    G = np.matmul(At, A)
+    G += 1e-12 * np.trace(G, axis1=1, axis2=2)[:, None, None] * np.eye(G.shape[1])
+    return np.linalg.solve(G, np.matmul(At, B))
+
+
+def smoothest_map(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, degrees: tuple[int, ...] = DEGREES
+                  ) -> tuple[np.ndarray, dict]:
+    """``uv (nv, 2)`` itself, or the fold-free :func:`polynomial_map` of it (one of ``degrees``; no triangle
+    thinner than :data:`ASPECT_GROWTH` times the map's thinnest) whose :func:`map_roughness` is lowest, where
+    that is at most :data:`MARGIN` times the map's. ``info``:
+    ``polynomial`` (the degree kept, 0 for none) and ``roughness`` (per candidate, ``0`` the map's)."""
+    rough = {0: map_roughness(V, F, uv)}
+    maps = {0: uv}
+    thinnest = ASPECT_GROWTH * face_aspects(uv, F).max()
+    for d in degrees:
+        cand = polynomial_map(V, uv, d)
+        if (np.isfinite(cand).all() and not np.logical_or(*fold_mask(cand, F)).any()
+                and face_aspects(cand, F).max() <= thinnest):
+            maps[d], rough[d] = cand, map_roughness(V, F, cand)
+    best = min(rough, key=rough.get)
+    if best and rough[best] > MARGIN * rough[0]:
+        best = 0
+    return maps[best], dict(polynomial=int(best), roughness={int(k): float(v) for k, v in rough.items()})
