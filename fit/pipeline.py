@@ -109,7 +109,13 @@ def _domain(V: np.ndarray, F: np.ndarray, uv, param: str, report: Callable[[floa
         uv = as_array(uv, "uv", (V.shape[0], 2))
         faces = F[:, [0, 2, 1]] if (signed_areas(uv, F) < 0).all() else F
         return uv, faces, None
-    from trispline.param import parameterize
+    from trispline.param import Parameterization, parameterize
+
+    if isinstance(param, Parameterization):  # made beforehand (the command line's, with its own progress bar)
+        if param.uv.shape != (V.shape[0], 2) or param.faces.shape != F.shape:
+            raise InputError(f"param is a parameterization of another mesh (uv {param.uv.shape}, faces "
+                             f"{param.faces.shape}; the mesh has {V.shape[0]} vertices, {F.shape[0]} faces)")
+        return param.uv, param.faces, (None if param.method == "uv" else param)  # a user's uv: as given
 
     p = parameterize(V, F, method=param, report=report)
     return p.uv, p.faces, p
@@ -137,11 +143,14 @@ def fit_surface(
     uv : (nv, 2) float, optional
         The domain. When given it is used as is (e.g. ``V[:, :2]`` for a height
         field) and ``param`` is ignored; faces are reversed if all are clockwise.
-    param : {"lscm", "harmonic", "uv"}
+    param : {"lscm", "harmonic", "slim", "uv", "auto"} or Parameterization
         Parameterization method when ``uv`` is None (see :mod:`trispline.param`). The
         default (``trispline.param.DEFAULT_METHOD``, ``lscm``: free boundary) keeps corners of the
         outline undistorted; on the shared real meshes it gave far smaller extreme curvature than
         ``harmonic``, whose circle boundary squeezes corners (inspired_mesh: max |H| L 3 against 5107).
+        Or a :class:`~trispline.param.Parameterization` of this mesh made beforehand (``parameterize``
+        with options of your own): fitted as the fit's own map (its outline faired as a curve), but one
+        of ``method="uv"`` as given uv.
     weights : FitWeights
     data_points : DataPoints or (face (n,), bary (n, 3), xyz (n, 3)), optional
     solver : an optimistix least-squares solver; default Gauss--Newton with the

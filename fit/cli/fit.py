@@ -441,7 +441,7 @@ def _solve(args: argparse.Namespace, ui: UI, mesh: _Input, p: Any, weights: FitW
         bar.done()
         t0 = time.perf_counter()
         try:
-            result = fit_surface(mesh.V, p.faces, uv=p.uv, weights=weights, max_steps=args.max_steps,
+            result = fit_surface(mesh.V, p.faces, param=p, weights=weights, max_steps=args.max_steps,
                                  progress=_progress(bar))
         except FitError as exc:
             raise CommandFailed(f"{exc} (try a larger --max-steps or other weights)") from exc

@@ -96,7 +96,9 @@ def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, face
         (:func:`~trispline.fit.targets.outline_fit_kernels`)
     smooth_map : the map is smooth up to its outline (given uv, or a polynomial map:
         :mod:`trispline.param.polymap`): the outline fits are those of given uv (a ring more, the wider
-        second fits, no guard) even where the outline is curved; default ``not curved_outline``
+        second fits of degree 4-6) even where the outline is curved; default ``not curved_outline``. The
+        rough-data guard of the second fits (:data:`~trispline.fit.targets.OWN_MAP_OUTLINE_LOO`) stays with
+        ``curved_outline``: it is about the scan, not the map
     """
     tri = space.tri
     if halo is None:
@@ -117,7 +119,7 @@ def term_context(space: SplineSpace, V: np.ndarray, weights: FitWeights, *, face
         fit=local_rbf_fit(tri.uv[hv], V[hv], hfaces, max_degree=w.fit_degree, rings=w.fit_rings,
                           outline_ring=targets.OUTLINE_RING and not rough, outline_fits=bool(second),
                           outline_kernels=second or None,
-                          outline_loo=targets.OWN_MAP_OUTLINE_LOO if rough else None,
+                          outline_loo=targets.OWN_MAP_OUTLINE_LOO if curved_outline else None,
                           report=span(report, 0.0, 0.6)),
         frame_vertices=renumber(fv), frame_scale=space.frame_scale[fv],
         vertex_area=vertex_areas(hfaces, harea, hv.size)[renumber(fv)], data_points=data_points,

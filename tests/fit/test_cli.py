@@ -705,3 +705,20 @@ def test_mesh_problems_name_the_files_vertex_numbers_after_unused_ones_are_dropp
         assert cli.main(cmd) in (2, 3)
         out = capsys.readouterr()
         assert "bowtie) vertices, where separate fans of faces meet: 1 (first: 3)" in out.err + out.out
+
+
+def test_fit_is_the_librarys_default_fit_over_its_own_map(tmp_path):
+    """``trispline fit scan.obj`` fits as ``fit_surface(V, F)`` does: over its own map (the outline faired as
+    a curve, the map's own outline fits), not as over given uv (it passed ``uv=`` before: no curved outline)."""
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    from trispline.fit import fit_surface
+
+    V, F = synthetic_scan(300, noise=0.0)
+    out = tmp_path / "s.npz"
+    r = run("fit", write_obj(tmp_path / "scan.obj", V, F), "-o", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    lib = fit_surface(V, F)
+    assert lib.curved_outline
+    np.testing.assert_allclose(SplineSurface.load(out).ctrl, lib.surface.ctrl, rtol=0, atol=1e-9 * np.ptp(V))

@@ -190,7 +190,8 @@ def test_a_fit_on_its_own_domain_curves_its_outline_and_a_users_uv_does_not(fitt
 
 def test_the_energy_of_a_curved_outline_fit_matches_its_report(fitted_on_its_own_domain):
     r = fitted_on_its_own_domain.result
-    e = fairness_energy(r.space, r.free, fitted_on_its_own_domain.V, r.weights, curved_outline=True)
+    e = fairness_energy(r.space, r.free, fitted_on_its_own_domain.V, r.weights, curved_outline=True,
+                        smooth_map=r.smooth_map)
     for term in ("bend", "tilt", "local"):
         np.testing.assert_allclose(e[term], r.energies[term], rtol=1e-6, err_msg=term)
 
