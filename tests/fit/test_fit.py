@@ -224,3 +224,21 @@ def test_real_meshes(name, real_mesh):
     assert res.converged
     assert res.c1_residual < 1e-9
     assert res.max_interpolation_error <= 1e-12 * max(1.0, np.abs(vm.V).max())
+
+
+def test_a_parameterization_made_beforehand_is_fitted_as_the_fits_own_map():
+    """``param=`` a Parameterization: the same fit as ``fit_surface(V, F)`` (its outline faired as a curve);
+    one of ``method="uv"`` as given uv; one of another mesh refused by name."""
+    from trispline.fit.datasets.synthetic import synthetic_scan
+    from trispline.param import parameterize
+
+    V, F = synthetic_scan(200, noise=0.0)
+    own, made = fit_surface(V, F), fit_surface(V, F, param=parameterize(V, F))
+    assert made.curved_outline and made.smooth_map == own.smooth_map
+    np.testing.assert_array_equal(made.ctrl, own.ctrl)
+    height = parameterize(V, F, method="uv")
+    given = fit_surface(V, height.faces, param=height)
+    assert not given.curved_outline and given.parameterization is None
+    np.testing.assert_array_equal(given.ctrl, fit_surface(V, height.faces, uv=height.uv).ctrl)
+    with pytest.raises(InputError, match="param is a parameterization of another mesh"):
+        fit_surface(V[:-1], F[(F < len(V) - 1).all(1)], param=parameterize(V, F))
