@@ -23,7 +23,7 @@ from functools import partial
 import numpy as np
 
 from .util import gather as _gather, memory as _memory, parallel as _parallel
-from .index import NCTRL
+from .index import NCTRL, lattice
 from .bernstein import basis, basis_gradient_bary, basis_of_degree, derivative_nets
 from .checks import as_array, check_ids
 from .errors import InputError
@@ -37,6 +37,7 @@ __all__ = [
     "evaluate_derivatives",
     "evaluate_grid",
     "numeric_continuity",
+    "regularity",
 ]
 
 
@@ -179,6 +180,20 @@ def evaluate_grid(
     du = np.einsum("knfd,fk->fnd", out[1:], G[:, :, 0])
     dv = np.einsum("knfd,fk->fnd", out[1:], G[:, :, 1])
     return np.ascontiguousarray(vals), du, dv
+
+
+def regularity(uv: np.ndarray, faces: np.ndarray, ctrl: np.ndarray, resolution: int = 8) -> np.ndarray:
+    """``(F,)`` each patch's smallest area element ``|F_u x F_v|`` over its largest, on the lattice of
+    ``resolution`` steps per edge (:func:`~trispline.spline.index.lattice`): about 1 for a patch whose
+    map to space is nearly affine, near 0 for one pinched toward a singular point (where the surface
+    has no tangent plane and its curvature blows up), 0 at a fold. ``ctrl (F, 21, 3)``."""
+    bary = lattice(resolution) / resolution
+    out = np.empty(np.shape(ctrl)[0])
+    for sl in _chunks(out.size):
+        _, du, dv = evaluate_grid(ctrl[sl], bary, uv=uv, faces=np.asarray(faces)[sl])
+        area = np.linalg.norm(np.cross(du, dv), axis=2)  # (f, n)
+        out[sl] = area.min(1) / np.maximum(area.max(1), np.finfo(float).tiny)
+    return out
 
 
 def edge_samples(tri: Triangulation, edges: np.ndarray, t: np.ndarray, *, side: int | None = None

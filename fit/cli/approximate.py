@@ -184,7 +184,7 @@ def _summary(args: argparse.Namespace, result: Any, mesh: Any, seconds: float) -
         deviation_all=st["deviation_all"], outline_gap=st["outline_gap"], outline_tolerance=bool(args.outline_tolerance),
         rejected=st["rejected"], noise=st["noise"], hull_slivers=st["hull_slivers"],
         over_tolerance=st["over_tolerance"], over_near_creases=st["over_near_creases"],
-        holes_filled=st["holes_filled"], small_holes=st["small_holes"],
+        holes_filled=st["holes_filled"], small_holes=st["small_holes"], regularity=st["regularity"],
         noise_correlation=st["noise_correlation"], rounds=result.history,
         weights=dataclasses.asdict(result.weights), data_weight=st["data_weight"],
         cross_validated=st["cross_validated"], energies=result.energies, iterations=int(result.iterations),
@@ -244,6 +244,12 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
                 f"holds for the scan's vertices): --outline-tolerance refines there too")
     from trispline.param.tables import SMALL_HOLE
 
+    from ..approx.pipeline import PINCHED
+
+    if st["regularity"] < PINCHED:
+        chosen = f" than the cross-validated {st['data_weight']:g}" if st["cross_validated"] else ""
+        ui.warn(f"the surface is nearly singular in a patch (its smallest area element is {st['regularity']:.2g} of "
+                f"its largest: the curvature spikes there); a lower --data weight{chosen} smooths it")
     if st["small_holes"] >= SMALL_HOLES_ADVICE and not args.fill_holes:
         ui.warn(f"the scan has {st['small_holes']} holes with at most {SMALL_HOLE} vertices around (dropouts?): the "
                 f"surface keeps each, with three coarse vertices or more; --fill-holes {SMALL_HOLE} spans them")

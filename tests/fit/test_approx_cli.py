@@ -210,3 +210,18 @@ def test_a_tolerance_missed_at_sharp_creases_names_them(tmp_path, capsys):
     assert not d["met"] and d["over_tolerance"] > 0
     assert d["over_near_creases"] >= 0.5 * d["over_tolerance"]  # 80 of 90
     assert "lie on or beside sharp creases (faces meeting at more than 30 degrees)" in err
+
+
+def test_a_nearly_singular_surface_is_named_with_the_way_out(tmp_path, capsys):
+    """The built-in noisy scan at 1% of its diagonal: the cross-validated data weight (1e6) leaves a patch on the
+    hole's outline nearly singular (measured: smallest area element 0.033 of its largest, |H| 6.5e3 there); the
+    command says so and names the data weight; with --data 1e4 (measured 0.26) it does not."""
+    from trispline.fit.approx.pipeline import PINCHED
+
+    for extra, warned in (((), True), (("--data", "1e4"), False)):
+        rc, stdout, err = run(capsys, "fit", "--example", "--example-faces", "4000", "-o", tmp_path / "s.npz",
+                              "--tolerance-rel", "1e-2", "--json", *extra)
+        d = json.loads(stdout)
+        assert rc == 0 and d["met"]
+        assert ("nearly singular" in err) is warned and (d["regularity"] < PINCHED) is warned
+        assert ("cross-validated 1e+06" in err) is warned

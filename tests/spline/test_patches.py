@@ -245,3 +245,21 @@ def test_gram_from_degree_10_moments_equals_sum_of_basis_products(seed, n, sprea
     got = gram_from_moments(product_monomials(bary) @ w)
     assert product_monomials(bary).shape == (PRODUCT_MONOMIALS, n)
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-13 * np.abs(expected).max())
+
+
+@settings(max_examples=10, deadline=None)
+@given(name=domain_names, seed=st.integers(0, 500))
+def test_regularity_is_one_for_an_affine_map_and_zero_where_a_patch_degenerates(name, seed):
+    """A patch's smallest area element over its largest: 1 where the map to space is affine (constant
+    ``F_u x F_v``); 0 where its frame at a corner collapses (the corner's two edge neighbours moved onto it)."""
+    from trispline.spline.patches import regularity
+    from trispline.spline.index import CORNER, STAR
+
+    uv, faces = DOMAINS[name](seed)
+    A = np.random.default_rng(seed).normal(size=(2, 3))
+    ctrl = polynomial_control_net(uv, faces, lambda p: p @ A)
+    np.testing.assert_allclose(regularity(uv, faces, ctrl), 1.0, atol=1e-9)
+    pinched = ctrl.copy()
+    pinched[0, STAR[0, 1:]] = pinched[0, CORNER[0]]  # both derivatives at the first corner vanish
+    r = regularity(uv, faces, pinched)
+    assert r[0] < 1e-12 and np.allclose(r[1:], 1.0, atol=1e-9)
