@@ -79,11 +79,17 @@ def polynomial_map(V: np.ndarray, uv: np.ndarray, degree: int) -> np.ndarray:
     return np.concatenate([_monomials3(X[lo:lo + CHUNK], degree) @ coef for lo in range(0, len(X), CHUNK)])
 
 
-def _sample_rings(F: np.ndarray, nv: int, centre: np.ndarray, rings: int) -> sp.csr_matrix:
-    """``(k, nv)`` CSR: row ``i`` marks the vertices within ``rings`` edges of ``centre[i]`` (itself too)."""
-    _, edges, _, _ = undirected_edges(F, nv)
+def _adjacency(F: np.ndarray, nv: int) -> sp.csr_matrix:
+    """``(nv, nv)`` CSR: the mesh's edges both ways and the diagonal (a step of :func:`_sample_rings`)."""
+    _, edges, _, _ = undirected_edges(np.asarray(F, np.int64), nv)
     A = sp.csr_matrix((np.ones(2 * len(edges)), (edges.ravel(), edges[:, ::-1].ravel())), shape=(nv, nv))
-    A = A + sp.identity(nv, format="csr")
+    return A + sp.identity(nv, format="csr")
+
+
+def _sample_rings(A: sp.csr_matrix, centre: np.ndarray, rings: int) -> sp.csr_matrix:
+    """``(k, nv)`` CSR: row ``i`` marks the vertices within ``rings`` edges of ``centre[i]`` (itself too);
+    ``A``: :func:`_adjacency`."""
+    nv = A.shape[0]
     R = sp.csr_matrix((np.ones(centre.size), (np.arange(centre.size), centre)), shape=(centre.size, nv))
     for _ in range(rings):
         R = R @ A
@@ -92,14 +98,16 @@ def _sample_rings(F: np.ndarray, nv: int, centre: np.ndarray, rings: int) -> sp.
     return R
 
 
-def map_roughness(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, sample: int = SAMPLE, seed: int = 0) -> float:
+def map_roughness(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, sample: int = SAMPLE, seed: int = 0,
+                  adjacency: sp.csr_matrix | None = None) -> float:
     """How far the surface ``V (nv, 3)`` read through the map ``uv (nv, 2)`` of ``F (nf, 3)`` is from smooth:
     the RMS, over a seeded sample of vertices, of the residual of the least-squares polynomial of degree
     :data:`ROUGH_DEGREE` in uv through the positions of the vertex's :data:`ROUGH_RINGS`-ring, over its mean
-    distance to them (rows with too few points for that degree take degree 3, fewer still are skipped)."""
+    distance to them (rows with too few points for that degree take degree 3, fewer still are skipped).
+    ``adjacency``: :func:`_adjacency` of ``F``, when known."""
     nv = len(V)
     centre = np.sort(np.random.default_rng(seed).choice(nv, min(sample, nv), replace=False))
-    R = _sample_rings(np.asarray(F, np.int64), nv, centre, ROUGH_RINGS)
+    R = _sample_rings(_adjacency(F, nv) if adjacency is None else adjacency, centre, ROUGH_RINGS)
     counts = np.diff(R.indptr)
     nbr = np.zeros((centre.size, int(counts.max())), np.int64)
     valid = np.arange(nbr.shape[1])[None, :] < counts[:, None]
@@ -140,15 +148,16 @@ def smoothest_map(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, degrees: tupl
     thinner than :data:`ASPECT_GROWTH` times the map's thinnest) whose :func:`map_roughness` is lowest, where
     that is at most :data:`MARGIN` times the map's. ``info``:
     ``polynomial`` (the degree kept, 0 for none) and ``roughness`` (per candidate, ``0`` the map's)."""
-    rough = {0: map_roughness(V, F, uv)}
-    maps = {0: uv}
-    thinnest = ASPECT_GROWTH * face_aspects(uv, F).max()
+    A = _adjacency(F, len(V))
+    rough, maps = {0: map_roughness(V, F, uv, adjacency=A)}, {0: uv}
     for d in degrees:
         cand = polynomial_map(V, uv, d)
-        if (np.isfinite(cand).all() and not np.logical_or(*fold_mask(cand, F)).any()
-                and face_aspects(cand, F).max() <= thinnest):
-            maps[d], rough[d] = cand, map_roughness(V, F, cand)
-    best = min(rough, key=rough.get)
-    if best and rough[best] > MARGIN * rough[0]:
-        best = 0
+        if np.isfinite(cand).all() and not np.logical_or(*fold_mask(cand, F)).any():
+            maps[d], rough[d] = cand, map_roughness(V, F, cand, adjacency=A)
+    best, thinnest = 0, None
+    for d in sorted((d for d in rough if d and rough[d] <= MARGIN * rough[0]), key=rough.get):
+        thinnest = ASPECT_GROWTH * face_aspects(uv, F).max() if thinnest is None else thinnest
+        if face_aspects(maps[d], F).max() <= thinnest:  # no new slivers
+            best = d
+            break
     return maps[best], dict(polynomial=int(best), roughness={int(k): float(v) for k, v in rough.items()})
