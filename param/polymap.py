@@ -155,7 +155,7 @@ def smoothest_map(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, degrees: tupl
         if np.isfinite(cand).all() and not np.logical_or(*fold_mask(cand, F)).any():
             maps[d], rough[d] = cand, map_roughness(V, F, cand, adjacency=A)
     best, thinnest = 0, None
-    for d in sorted((d for d in rough if d and rough[d] <= MARGIN * rough[0]), key=rough.get):
+    for d in sorted((d for d in rough if d and rough[d] < MARGIN * rough[0]), key=rough.get):  # measurably smoother
         thinnest = ASPECT_GROWTH * face_aspects(uv, F).max() if thinnest is None else thinnest
         if face_aspects(maps[d], F).max() <= thinnest:  # no new slivers
             best = d

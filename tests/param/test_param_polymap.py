@@ -59,3 +59,15 @@ def test_parameterize_reports_the_polynomial_map_and_not_for_the_harmonic_map():
     assert not np.logical_or(*fold_mask(p.uv, F)).any()
     assert parameterize(V, F, method="harmonic").smoothing["polynomial"] == 0
     assert parameterize(V, F, polynomial=False).smoothing["polynomial"] == 0
+
+
+def test_where_the_roughness_cannot_be_measured_the_map_is_kept():
+    """One row of tall triangles around a cylinder: no 4-ring holds the 20 points of a local cubic, every
+    roughness is 0, and no candidate is measurably smoother (a tie keeps the map)."""
+    t = np.linspace(0.0, 2 * np.pi, 64, endpoint=False)
+    V = np.r_[np.c_[np.cos(t), np.sin(t), 0 * t], np.c_[np.cos(t), np.sin(t), 0 * t + 3.0]]
+    i = np.arange(64)
+    F = np.r_[np.c_[i, (i + 1) % 64, 64 + i], np.c_[(i + 1) % 64, 64 + (i + 1) % 64, 64 + i]]
+    p = parameterize(V, F, method="harmonic")
+    uv, info = smoothest_map(V, p.faces, p.uv)
+    assert info["polynomial"] == 0 and uv is p.uv and set(info["roughness"].values()) == {0.0}
