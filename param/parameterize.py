@@ -190,9 +190,8 @@ def parameterize(
         raise MeshError("validated is not the validation of these V and F (their shapes differ)", ["validated"])
     vm = validate_mesh(V, F) if validated is None else validated
     report = report or silent
-    smooth = (smooth and polynomial) + bool(smooth)  # 0: no smoothing, 1: local fits, 2: also polynomial maps
-    p = (_auto(vm, repair, smooth, report, embedded) if method == "auto"
-         else _single(vm, method, uv, repair, smooth, report, embedded))
+    p = (_auto(vm, repair, smooth, report, embedded, polynomial) if method == "auto"
+         else _single(vm, method, uv, repair, smooth, report, embedded, polynomial))
     report(1.0)
     return p
 
@@ -202,9 +201,9 @@ _MAP_DONE, _SMOOTH_DONE, _REPAIR_DONE = 0.3, 0.45, 0.95
 
 
 def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
-            smooth: int = 2, report: Report = silent, embedded: bool = False) -> Parameterization:
-    """:func:`parameterize` with one map of :data:`~trispline.param.methods.MAPS` (``smooth``: 0 none, 1 the
-    local fits, 2 also a smoother polynomial map)."""
+            smooth: bool = DEFAULT_SMOOTH, report: Report = silent, embedded: bool = False,
+            polynomial: bool = DEFAULT_POLYNOMIAL) -> Parameterization:
+    """:func:`parameterize` with one map of :data:`~trispline.param.methods.MAPS`."""
     messages = list(vm.messages)
     raw = raw_map(vm, method, uv, span(report, 0.0, _MAP_DONE))
     report(_MAP_DONE)
@@ -219,7 +218,7 @@ def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
         messages.append(f"the {method} map came out clockwise; mirrored u")
     smoothing: dict = {}
     if smooth and method != "uv":  # first: a smooth map often has none of the raw map's few folds
-        raw, smoothing = _smoothed(vm, raw, method, messages, smooth > 1)
+        raw, smoothing = _smoothed(vm, raw, method, messages, polynomial)
     report(_SMOOTH_DONE)
     raw, repaired, folds = _unfold(vm, raw, method, uv is None, repair, messages,
                                    span(report, _SMOOTH_DONE, _REPAIR_DONE), embedded)
@@ -233,7 +232,7 @@ def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
                         f"{crossings} points): the fit does not mind, but a point (u, v) there names more "
                         "than one point of the surface")
     if smooth and repaired in ("harmonic", "slim"):  # a map that replaced a worse repair
-        smoothed, info = _smoothed(vm, raw, repaired, messages, smooth > 1)
+        smoothed, info = _smoothed(vm, raw, repaired, messages, polynomial)
         crossing = embedded and outline_crossings(smoothed, vm.boundary_loops, tangle=TANGLE_SEGMENTS)
         if not crossing:  # else kept unsmoothed: the smoothing's small moves made it cross
             raw, smoothing = smoothed, info
@@ -281,8 +280,8 @@ def _good(p: Parameterization) -> bool:
     return _folds(p) == 0 and p.distortion["score"] <= ANGLE_DISTORTION_WARN
 
 
-def _auto(vm: ValidatedMesh, repair: bool, smooth: int, report: Report = silent,
-          embedded: bool = False) -> Parameterization:
+def _auto(vm: ValidatedMesh, repair: bool, smooth: bool, report: Report = silent,
+          embedded: bool = False, polynomial: bool = DEFAULT_POLYNOMIAL) -> Parameterization:
     """``method="auto"``: LSCM when it is good, else the least distorted map, fold-free first."""
     tried: dict[str, Parameterization] = {}
     failed: dict[str, str] = {}
@@ -291,7 +290,7 @@ def _auto(vm: ValidatedMesh, repair: bool, smooth: int, report: Report = silent,
             break
         try:
             tried[name] = _single(vm, name, None, repair, smooth,
-                                  span(report, k / len(AUTO_ORDER), (k + 1) / len(AUTO_ORDER)), embedded)
+                                  span(report, k / len(AUTO_ORDER), (k + 1) / len(AUTO_ORDER)), embedded, polynomial)
         except MeshError as exc:
             failed[name] = str(exc).splitlines()[0]
     if not tried:

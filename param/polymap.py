@@ -1,6 +1,6 @@
 """A map that is smooth by construction: uv as one low-degree polynomial of the position in space.
 
-    uv2, info = smoothest_map(V, F, uv, loops)   # (nv, 2): uv itself, or a polynomial map that beats it
+    uv2, info = smoothest_map(V, F, uv)   # (nv, 2): uv itself, or a polynomial map that beats it
 
 Why (issue 17): the spline interpolates the mesh over its map, so its accuracy is that of
 ``x(uv)``, the surface read through the map. A discrete map (LSCM), even smoothed vertex by
@@ -17,8 +17,8 @@ from a local quartic of the map's uv over the 4-ring of a seeded sample of verti
 the local edge length). It ranked the candidates as the fits' errors did on the 8 analytic
 surfaces (polynomials of the map win on height-field-like surfaces; on a torus patch, a
 240-degree barrel and Enneper's surface no low degree follows the conformal map and the
-smoothed map stays). A polynomial map is kept when it is fold-free and its roughness is at most
-:data:`MARGIN` times the map's.
+smoothed map stays). A polynomial map is kept when it is fold-free and its roughness is below
+:data:`MARGIN` times the map's (a tie, e.g. where no neighbourhood is large enough to measure, keeps the map).
 """
 from __future__ import annotations
 
@@ -28,7 +28,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from .distortion import fold_mask
-from .tables import undirected_edges
+from .smooth import _monomials
+from .tables import ring_step, undirected_edges
 from .validate import face_aspects
 
 __all__ = ["ASPECT_GROWTH", "DEGREES", "MARGIN", "SAMPLE", "ROUGH_RINGS", "ROUGH_DEGREE", "map_roughness", "polynomial_map",
@@ -37,7 +38,7 @@ __all__ = ["ASPECT_GROWTH", "DEGREES", "MARGIN", "SAMPLE", "ROUGH_RINGS", "ROUGH
 #: Degrees of the polynomial maps tried (a degree-6 map of the cap was 10x rougher than degree 2-4: on a
 #: quadric or a quartic surface the monomials of higher degree are dependent and the fit wiggles).
 DEGREES = (2, 3, 4)
-#: A polynomial map is kept when its :func:`map_roughness` is at most this times the map's.
+#: A polynomial map is kept when its :func:`map_roughness` is below this times the map's.
 MARGIN = 0.8
 #: ... and when its thinnest triangle (longest edge over height) is at most this times the map's.
 ASPECT_GROWTH = 2.0
@@ -80,10 +81,8 @@ def polynomial_map(V: np.ndarray, uv: np.ndarray, degree: int) -> np.ndarray:
 
 
 def _adjacency(F: np.ndarray, nv: int) -> sp.csr_matrix:
-    """``(nv, nv)`` CSR: the mesh's edges both ways and the diagonal (a step of :func:`_sample_rings`)."""
-    _, edges, _, _ = undirected_edges(np.asarray(F, np.int64), nv)
-    A = sp.csr_matrix((np.ones(2 * len(edges)), (edges.ravel(), edges[:, ::-1].ravel())), shape=(nv, nv))
-    return A + sp.identity(nv, format="csr")
+    """:func:`~trispline.param.tables.ring_step` of the mesh ``F``'s edges (a step of :func:`_sample_rings`)."""
+    return ring_step(undirected_edges(np.asarray(F, np.int64), nv)[1], nv)
 
 
 def _sample_rings(A: sp.csr_matrix, centre: np.ndarray, rings: int) -> sp.csr_matrix:
@@ -123,9 +122,7 @@ def map_roughness(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, sample: int =
         upper = need
         if not rows.size:
             continue
-        x, y = d[rows, :, 0], d[rows, :, 1]
-        A = np.stack([x**i * y**j for i in range(degree + 1) for j in range(degree + 1 - i)], -1)
-        A *= valid[rows][..., None]
+        A = _monomials(d[rows], degree) * valid[rows][..., None]
         res = dx[rows] - np.matmul(A, _batched_lstsq(A, dx[rows]))
         out.append(np.sqrt((res**2).sum((1, 2)) / counts[rows]) / np.maximum(h[rows], np.finfo(float).tiny))
     r = np.concatenate(out) if out else np.zeros(0)
@@ -146,7 +143,7 @@ def smoothest_map(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, degrees: tupl
                   ) -> tuple[np.ndarray, dict]:
     """``uv (nv, 2)`` itself, or the fold-free :func:`polynomial_map` of it (one of ``degrees``; no triangle
     thinner than :data:`ASPECT_GROWTH` times the map's thinnest) whose :func:`map_roughness` is lowest, where
-    that is at most :data:`MARGIN` times the map's. ``info``:
+    that is below :data:`MARGIN` times the map's. ``info``:
     ``polynomial`` (the degree kept, 0 for none) and ``roughness`` (per candidate, ``0`` the map's)."""
     A = _adjacency(F, len(V))
     rough, maps = {0: map_roughness(V, F, uv, adjacency=A)}, {0: uv}

@@ -45,7 +45,7 @@ from trispline.spline.util.parallel import Workers, ranges
 from trispline.spline.util.spd import solve_spd
 
 from .distortion import fold_mask
-from .tables import undirected_edges
+from .tables import ring_step, undirected_edges
 
 __all__ = ["DEGREE", "RINGS", "WIDTH", "BOUNDARY_REACH", "BOUNDARY_MAX_MOVE", "METHOD", "GLOBAL_WEIGHT",
            "GLOBAL_MAX_VERTICES", "fit_weights", "loop_corners", "smooth_uv"]
@@ -161,8 +161,7 @@ def _neighbourhoods(V: np.ndarray, F: np.ndarray, rings: int) -> tuple[np.ndarra
     length = np.linalg.norm(V[edges[:, 0]] - V[edges[:, 1]], axis=1)
     deg = np.bincount(edges.ravel(), minlength=nv)
     h = np.bincount(edges.ravel(), np.repeat(length, 2), minlength=nv) / np.maximum(deg, 1)
-    A = sp.coo_matrix((np.ones(2 * len(edges)), (edges.ravel(), edges[:, ::-1].ravel())), shape=(nv, nv))
-    step = (A + sp.identity(nv)).tocsr()
+    step = ring_step(edges, nv)
     R = step
     for _ in range(rings - 1):
         R = R @ step

@@ -18,12 +18,19 @@ from scipy.sparse.csgraph import connected_components
 
 from trispline.spline.topology import halfedges, undirected_edges
 
-__all__ = ["loop_successors", "halfedges", "undirected_edges", "edge_pairs", "vertex_components", "corner_fans", "fan_counts",
+__all__ = ["ring_step", "loop_successors", "halfedges", "undirected_edges", "edge_pairs", "vertex_components", "corner_fans", "fan_counts",
            "orientation_classes", "boundary_loop_count", "boundary_loops", "SMALL_HOLE", "small_holes"]
 
 #: Holes with at most this many vertices around are small (scanner dropouts: a few missing triangles):
 #: ``trispline info`` counts them, and an approximation can span them (``fill_holes``).
 SMALL_HOLE = 8
+
+
+def ring_step(edges: np.ndarray, nv: int) -> sp.csr_matrix:
+    """``(nv, nv)`` CSR of ones: the undirected ``edges (ne, 2)`` both ways and the diagonal, so that a
+    product with it grows a set of vertices (its rows' patterns) by one ring."""
+    A = sp.csr_matrix((np.ones(2 * len(edges)), (edges.ravel(), edges[:, ::-1].ravel())), shape=(nv, nv))
+    return A + sp.identity(nv, format="csr")
 
 
 def loop_successors(sizes: list[int]) -> np.ndarray:
