@@ -159,7 +159,8 @@ def parameterize(
         (the given coordinates are kept as they are). Default :data:`DEFAULT_SMOOTH`.
     polynomial : bool
         With ``smooth``: the smoothed map (not the harmonic one, whose outline stays on its circle) gives
-        way to a fold-free polynomial of degree 2-4 of the position in space fitted to it, when that is measurably smoother
+        way to a fold-free polynomial of degree 2-4 of the position in space fitted to it, or to the projection
+        onto the mesh's mean plane (degree 1: a height field's natural map), when that is measurably smoother
         (:func:`~trispline.param.polymap.smoothest_map`; ``smoothing["polynomial"]`` names the degree).
         Default :data:`DEFAULT_POLYNOMIAL`.
     embedded : bool
@@ -265,8 +266,9 @@ def _smoothed(vm: ValidatedMesh, raw: np.ndarray, method: str, messages: list[st
         info.update(poly)
         if poly["polynomial"]:
             info["fallback"] = False  # a fold-free map, whatever the local fits did
-            messages.append(f"the {method} map was replaced by the smoother polynomial of degree "
-                            f"{poly['polynomial']} of the position fitted to it")
+            messages.append(f"the {method} map was replaced by the smoother "
+                            + ("projection onto the mesh's mean plane" if poly["polynomial"] == 1 else
+                               f"polynomial of degree {poly['polynomial']} of the position fitted to it"))
     info["unfolded"] = folds_before if folds_before and not info["fallback"] else 0
     if info["unfolded"]:
         messages.append(f"smoothing the {method} map removed its {folds_before} folded triangles")
