@@ -30,6 +30,7 @@ import scipy.sparse as sp
 
 from trispline.param import face_areas_3d
 from trispline.spline.bernstein import basis
+from trispline.spline.patches import regularity
 from trispline.spline.polynomial import Polynomial, polynomial_control_net
 from trispline.spline.propagation import SplineSpace, build_space, working_origin
 from trispline.spline.surface import SplineSurface
@@ -57,6 +58,15 @@ APPROX_WEIGHTS = FitWeights(bend=1.0, tilt=0.0, local=0.0, data=10.0, angle=0.0)
 DATA_WEIGHTS = (3.0, 10.0, 30.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0, 3e4, 1e5, 3e5, 1e6)
 #: ... leaving out every this-many-th scan vertex.
 HOLDOUT = 10
+#: A patch whose :func:`~trispline.spline.patches.regularity` (its smallest area element over its largest) is
+#: below this is nearly singular somewhere: its curvature spikes there. Measured: the built-in noisy scan
+#: (4,000 faces) at 1% of its diagonal with the data weight 1e6: an ear on the hole at 0.033, |H| 6.5e3 there
+#: against the interpolant's largest 78; with 1e4 0.26 (docs/approximate.md).
+PINCHED = 0.1
+#: :func:`cross_validated_weight` with ``regular``: a weight whose fit has no :data:`PINCHED` patch is taken if
+#: its held-out score is at most this much worse than the best's (the noisy built-in scan: 3e4 at 1.024x; a
+#: terrain tile whose hull slivers pinch at every weight but the smallest: 300 at 1.52x, 3 at 2.81x, refused).
+REGULAR_SLACK = 0.1
 #: Monomial exponents of the reference quadric.
 QUADRIC_POWERS = np.array([(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)])
 #: The robust Gauss--Newton steps' linear solve (:class:`~trispline.fit.solve.FactorSolver`): ``"pcg"``,
@@ -228,8 +238,8 @@ def _reference_net(dom: CoarseDomain, V: np.ndarray, reference: Polynomial | Non
 def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX_WEIGHTS,
                            corners: str = "data", candidates: tuple[float, ...] = DATA_WEIGHTS,
                            holdout: int = HOLDOUT, located: tuple[np.ndarray, np.ndarray] | None = None,
-                           unreached: np.ndarray | None = None, reference: Polynomial | None = None
-                           ) -> tuple[float, dict[float, float]]:
+                           unreached: np.ndarray | None = None, reference: Polynomial | None = None,
+                           regular: bool = False) -> tuple[float, dict[float, float]]:
     """The data weight of :data:`DATA_WEIGHTS` whose plain fit best predicts held-out scan vertices.
 
     Every ``holdout``-th scan vertex (not a coarse vertex) is left out; the others are fitted
@@ -239,7 +249,9 @@ def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeig
     all but the worst 1% (outliers). Noisy scans want a small weight (more smoothing), clean
     ones with detail a large one. ``located``: the scan's parameters (default :func:`scan_location`;
     the pipeline passes :func:`corrected_location`), ``unreached (n,)`` its points left out (default
-    :func:`scan_location`'s), ``reference`` the bend term's (default :func:`quadric_reference`).
+    :func:`scan_location`'s), ``reference`` the bend term's (default :func:`quadric_reference`). ``regular``:
+    the best weight whose fit has no :data:`PINCHED` patch, if its score is within :data:`REGULAR_SLACK` of the
+    best (else the best: a pinch that only a much smoother fit loses is not the weight's doing).
     Returns ``(weight, {weight: score})``; ``(weights.data, {})`` when no scan vertex is left to hold out.
     """
     face, bary, unreached = _location(dom, located, unreached)
@@ -261,7 +273,7 @@ def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeig
     none = DataPoints(face[:0], bary[:0], Vn[:0])
     rim = plain_system(space, none, corner_xyz, weights, "l2", ref_net, bend_weight=bw * edge)  # the outline's bend
     B = basis(bary[test])
-    scores = {}
+    scores, least = {}, {}
     factor = None
     backend = spd_backend(None, sys.unknowns.size, pardiso_min=0)  # one analysis for every candidate
     for w in candidates:
@@ -277,7 +289,11 @@ def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeig
         r = np.linalg.norm(np.einsum("nk,nkc->nc", B, ctrl[face[test]]) - Vn[test], axis=1)
         kept = np.sort(r)[: max(1, int(np.ceil(0.99 * r.size)))]
         scores[w] = float(np.sqrt(np.mean(kept**2))) * size
-    return min(scores, key=scores.get), scores
+        if regular:
+            least[w] = float(regularity(space.tri.uv, space.tri.faces, ctrl).min(initial=1.0))
+    best = min(scores, key=scores.get)
+    ok = [w for w in least if least[w] >= PINCHED and scores[w] <= (1.0 + REGULAR_SLACK) * scores[best]]
+    return (min(ok, key=scores.get) if ok else best), scores
 
 
 def fit_domain(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeights = APPROX_WEIGHTS, loss: str = "huber",

@@ -33,7 +33,6 @@ from trispline.spline.checks import as_array
 from trispline.spline.continuity import continuity_report
 from trispline.spline.errors import InputError, first_few
 from trispline.spline.index import CORNER
-from trispline.spline.patches import regularity
 from trispline.spline.polynomial import Polynomial
 from trispline.spline.surface import SplineSurface
 from trispline.spline.tolerances import MIN_RELATIVE_AREA_3D
@@ -54,6 +53,7 @@ from .fit import (APPROX_WEIGHTS, corrected_location, cross_validated_weight, fi
 from .creases import near_creases
 from .holes import SMALL_HOLE, folded_holes, small_holes, span_holes
 from .problem import CORNER_MODES
+from .fit import PINCHED
 from .refine import Round, measure, outline_gaps, pick_vertices
 
 __all__ = ["ApproxResult", "approximate_surface", "APPROX_STAGES", "LOSS_NAMES", "DEFAULT_BUDGET_FRACTION",
@@ -96,6 +96,12 @@ WORST_TIE = 0.1
 #: larger of the two kept a seed of a quarter of the budget; a patch swinging out where it has few data
 #: (what the gap is for) is many times it.
 GAP_TIE = 1.5
+#: Whether a refinement round whose fit has a nearly singular patch (:data:`~.fit.PINCHED`) chooses the data
+#: weight again on its domain (cross-validated, :func:`~.fit.cross_validated_weight`) and, where that is lower,
+#: refits and refines on with it: a weight chosen on a few vertices can overfit many (the peeled 3,000-point
+#: terrain tile at 3e-3: 1e6 from its first domain, 124 vertices later 0.2% of a patch's area element left
+#: somewhere, |H| 484 against the terrain's 0.03).
+REWEIGH_PINCHED = True
 #: A budget alone: the final fit (at the closest points, its RMS often half the round's) replaces the best
 #: round unless its worst deviation is larger by more than this share (a 100k-face clean scan: RMS 1.9e-5
 #: -> 7.9e-6 for a maximum 12% larger; a tiny scan's poorly cross-validated weight: 7000x larger).
@@ -480,7 +486,7 @@ def approximate_surface(
         opt = dataclasses.replace(opt, weights=_smoothing(dom, V, opt))
         stage("smoothing")
     scale = None if opt.loss == "l2" else loss_scale(dom, opt.loss, diagonal)
-    best, history, stop = _refine(V, faces, dom, opt, scale, max_rounds, stage)
+    best, history, stop, opt = _refine(V, faces, dom, opt, scale, max_rounds, stage)
     if not opt.refine and best.dom.stats.n_vertices < opt.budget and stop == "noise floor":
         dom, opt, best, more, stop = _whole_budget(V, faces, uv, opt, scale, stage)
         history += more
@@ -498,17 +504,18 @@ def _whole_budget(V: np.ndarray, F: np.ndarray, uv: np.ndarray, opt: _Options, s
     if opt.auto:
         opt = dataclasses.replace(opt, weights=_smoothing(dom, V, opt))
         stage("smoothing")
-    best, history, _ = _refine(V, F, dom, opt, scale, 1, stage)
+    best, history, _, opt = _refine(V, F, dom, opt, scale, 1, stage)
     return dom, opt, best, history, "noise floor"
 
 
 def _smoothing(dom: CoarseDomain, V: np.ndarray, opt: _Options, located: tuple | None = None,
-               unreached: np.ndarray | None = None) -> FitWeights:
+               unreached: np.ndarray | None = None, regular: bool = False) -> FitWeights:
     """:data:`~.fit.APPROX_WEIGHTS` with the cross-validated data weight of ``dom`` (scan at ``located``,
-    ``unreached`` left out)."""
+    ``unreached`` left out; ``regular``: a weight whose fit has no nearly singular patch)."""
     return dataclasses.replace(APPROX_WEIGHTS, data=cross_validated_weight(dom, V, corners=opt.corners,
                                                                            located=located, unreached=unreached,
-                                                                           reference=opt.reference)[0])
+                                                                           reference=opt.reference,
+                                                                           regular=regular)[0])
 
 
 def _located(dom: CoarseDomain, previous: Round | None) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
@@ -592,8 +599,8 @@ def _grow(dom: CoarseDomain, state: Round, threshold: float, room: int, budget: 
 
 
 def _refine(V: np.ndarray, F: np.ndarray, dom: CoarseDomain, opt: _Options, scale: float | None, max_rounds: int,
-            stage: Callable) -> tuple[Round, list[dict], str]:
-    """The refinement rounds: ``(best round, history, why it stopped)``.
+            stage: Callable) -> tuple[Round, list[dict], str, _Options]:
+    """The refinement rounds: ``(best round, history, why it stopped, options)``.
 
     With a tolerance: every face holding an inlier over it gets a vertex (at most doubling the count)
     until it is met. A budget alone: from :data:`BUDGET_SEED` of it, each round half the remaining room
@@ -614,6 +621,15 @@ def _refine(V: np.ndarray, F: np.ndarray, dom: CoarseDomain, opt: _Options, scal
         record = dict(state.record(), round=r + 1, tolerance=opt.tolerance, budget=opt.budget)
         history.append(record)
         stage("deviation", record=record)
+        if opt.auto and REWEIGH_PINCHED and state.pinched.any():  # the weight chosen again on this domain
+            weights = _smoothing(dom, V, opt, located, fit.unreached, regular=True)
+            if weights.data < opt.weights.data:
+                opt = dataclasses.replace(opt, weights=weights)
+                fit, located = _round_fit(V, dom, opt, scale)
+                state = measure(dom, V, fit, located, scale is not None, seconds=time.perf_counter() - t0,
+                                outline=opt.outline, scan_faces=None if opt.refine else F)
+                history[-1] = dict(state.record(), round=r + 1, tolerance=opt.tolerance, budget=opt.budget)
+                stage("smoothing", record=history[-1])
         if best is None or _better(state, best, opt):  # with a tolerance, the inliers' maximum deviation
             best = state
         if not opt.refine and r == 1 and _at_noise_floor(history, dom.stats.noise):
@@ -634,7 +650,7 @@ def _refine(V: np.ndarray, F: np.ndarray, dom: CoarseDomain, opt: _Options, scal
             stop = "stalled"  # nothing could be inserted (every candidate too close to a vertex, or budget)
             break
         dom = new
-    return best, history, stop
+    return best, history, stop, opt
 
 
 def _better(state: Round, best: Round, opt: _Options, tie: float = WORST_TIE) -> bool:
@@ -642,7 +658,11 @@ def _better(state: Round, best: Round, opt: _Options, tie: float = WORST_TIE) ->
     smaller inliers' maximum; with a budget alone, a worst deviation not larger by more than ``tie``
     (:data:`WORST_TIE`; the final fit :data:`FINAL_TIE`) and a surface-to-scan gap within :data:`GAP_TIE`
     of the best's."""
-    if opt.refine:
+    if opt.refine:  # a round that meets the tolerance with no nearly singular patch beats one with
+        if state.pinched.any() != best.pinched.any():  # (refinement's pick, _refine), and only such a round
+            regular, pinched = (state, best) if best.pinched.any() else (best, state)
+            if opt.deviation(regular) <= opt.tolerance:
+                return regular is state
         return state.worst < best.worst
     return (state.data_worst <= best.data_worst * (1.0 + tie)
             and state.gap_worst <= GAP_TIE * max(best.gap_worst, best.data_worst))
@@ -666,7 +686,8 @@ def _final(V: np.ndarray, F: np.ndarray, best: Round, opt: _Options, scale: np.n
     raise the maximum deviation. Returns the state kept and its weights."""
     t0 = time.perf_counter()
     located, unreached = (best.located, best.fit.unreached) if opt.refine else _located(best.dom, best)
-    weights = _smoothing(best.dom, V, opt, located, unreached) if (opt.auto and refined) else opt.weights
+    weights = (_smoothing(best.dom, V, opt, located, unreached, regular=bool(best.pinched.any()))
+               if (opt.auto and refined) else opt.weights)
     state, kept = best, None
     for k in range(1 if opt.refine else 1 + FINAL_CORRECTIONS):
         pw = None if scale is None else _irls_weights(state.fit, located, V, scale, opt.loss)
@@ -682,8 +703,9 @@ def _final(V: np.ndarray, F: np.ndarray, best: Round, opt: _Options, scale: np.n
     stage("final")
     # the final fit, unless it would break a tolerance the best round met (or do worse)
     keep = (_better(kept, best, opt, FINAL_TIE) if opt.tolerance is None
-            else opt.deviation(kept) <= max(opt.tolerance, opt.deviation(best)))
-    return (kept, weights) if keep else (best, opt.weights)
+            else opt.deviation(kept) <= max(opt.tolerance, opt.deviation(best))
+            and (best.pinched.any() or not kept.pinched.any()))  # nor pinch a regular surface
+    return (kept, weights) if keep else (best, dataclasses.replace(opt.weights, data=best.fit.weights[1]))
 
 
 def _outline_gap(state: Round, V: np.ndarray) -> float:
@@ -727,7 +749,7 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
                  hull_slivers=int(hull_sliver_faces(V, parameterization.faces).sum()),
                  holes_filled=opt.filled,
                  small_holes=len(small_holes(V, parameterization.faces, SMALL_HOLE)),
-                 regularity=float(regularity(tri.uv, tri.faces, ctrl).min(initial=1.0)))
+                 regularity=float(state.regularity.min(initial=1.0)))
     settings = dict(loss=opt.loss, corners=opt.corners, tolerance=opt.tolerance, budget=opt.budget, scale=nominal,
                     data_weight=float(weights.data), fill_holes=opt.fill_holes)
     extras = surface_extras(dom, fit, V, stats, settings, weights)
@@ -745,11 +767,6 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
         located=state.located)
 
 
-#: Below this ``stats["regularity"]`` (a patch's smallest area element over its largest) the command line
-#: warns of a nearly singular point. Measured: the built-in noisy scan (4,000 faces) at 1% of its diagonal,
-#: cross-validated data weight 1e6: 0.033, |H| 6.5e3 there against the interpolant's largest 78; at 3e-3
-#: 0.030, |H| 1.6e4; the same scan with the weight 1e4: 0.26 / 0.30, |H| 12.5 / 69 (docs/approximate.md).
-PINCHED = 0.1
 
 #: The deviation statistics stored in the surface file, in order (``approx_deviation``).
 DEVIATION_KEYS = ("count", "rms", "mean", "max", "p50", "p95", "p99")

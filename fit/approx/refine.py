@@ -28,9 +28,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from trispline.spline.patches import regularity
+
 from .deviation import Deviation, distance_to_mesh, summary, surface_deviation
 from .domain import MIN_SEPARATION, CoarseDomain, coarse_index, separation
-from .fit import CoarseFit
+from .fit import PINCHED, CoarseFit
 
 __all__ = ["Round", "measure", "outline_gaps", "surface_gaps", "faceting", "pick_vertices", "REJECT_SIGMAS", "GROWTH",
            "GAP_RESOLUTION"]
@@ -83,6 +85,7 @@ class Round:
         (:func:`surface_gaps`), which refinement treats as a deviation of the face: the surface-to-scan side
         that the scan vertices cannot see (a patch swinging out where it has few data)
     corrections : parameter corrections behind ``located`` (0: the scan's own uv)
+    regularity : (f,) each coarse patch's :func:`~trispline.spline.patches.regularity` (:attr:`pinched`)
     """
 
     dom: CoarseDomain
@@ -95,6 +98,13 @@ class Round:
     outline: np.ndarray | None = None
     face_gap: np.ndarray | None = None
     corrections: int = 0
+    regularity: np.ndarray | None = None
+
+    @property
+    def pinched(self) -> np.ndarray:
+        """``(f,)`` bool: the patches nearly singular somewhere (:data:`PINCHED`)."""
+        n = self.dom.stats.n_faces
+        return np.zeros(n, bool) if self.regularity is None else self.regularity < PINCHED
 
     @property
     def worst(self) -> float:
@@ -151,7 +161,8 @@ def measure(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit, located: tuple[np.
     return Round(dom=dom, fit=fit, located=located, deviation=dev, rejected=rejected,
                  inliers=summary(dev.distance, ~rejected), seconds=seconds,
                  outline=outline_gaps(dom, V, fit) if outline else None,
-                 face_gap=None if scan_faces is None else surface_gaps(dom, V, scan_faces, fit))
+                 face_gap=None if scan_faces is None else surface_gaps(dom, V, scan_faces, fit),
+                 regularity=regularity(fit.space.tri.uv, fit.space.tri.faces, np.asarray(fit.surface.ctrl)))
 
 
 def outline_gaps(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit) -> np.ndarray:

@@ -7,6 +7,7 @@ import pytest
 import trimesh
 from scipy.spatial import Delaunay
 from trispline.fit.approx import approximate_surface
+from trispline.fit.approx.fit import PINCHED
 from trispline.fit.approx.holes import SPAN_HOLE_AREA, folded_holes, span_holes
 from trispline.fit.cli import main
 from trispline.fit.datasets.tile import scattered_tile
@@ -118,6 +119,9 @@ def test_a_peeled_scattered_tile_meets_the_tolerance_with_fewer_vertices():
     peeled = approximate_surface(r.V, r.F, tolerance_rel=3e-3)
     assert peeled.stats["met"] and not plain.stats["met"]
     assert peeled.stats["vertices"] < 0.8 * plain.stats["vertices"]
+    # the weight cross-validated on the first domain (1e6) overfits the refined one: a round left nearly singular
+    # chose it again (measured: 3e3, regularity 0.11, |H| 0.24 against 484 with 1e6)
+    assert peeled.stats["regularity"] >= PINCHED and peeled.stats["data_weight"] < 1e6
     assert plain.stats["hull_slivers"] == hull_sliver_faces(V, F).sum() > 10 * peeled.stats["hull_slivers"]
 
 
