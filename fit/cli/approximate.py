@@ -52,15 +52,26 @@ STALLED_SHARE = 0.8
 CREASE_SHARE = 0.5
 
 
+def _below_noise(st: dict) -> bool:
+    """Whether the tolerance is below :data:`NOISE_SIGMAS` times the scan's noise estimate (where that estimate is
+    noise: its residuals uncorrelated, else it is the local quadrics' model error)."""
+    tol = st.get("tolerance")
+    return (tol is not None and tol < NOISE_SIGMAS * st.get("noise", 0.0)
+            and st.get("noise_correlation", 0.0) <= NOISE_CORRELATION_MAX)
+
+
 def _advice(st: dict, history: list[dict], hull_slivers: int = 0) -> str:
-    """What to try where the tolerance was not met: peel the outline's hull slivers where it has them; where
-    the misses lie at sharp creases, say that a C1 surface rounds them; else more vertices, unless rounds with
+    """What to try where the tolerance was not met: peel the outline's hull slivers where it has them; a tolerance
+    below the noise raised; where the misses lie at sharp creases, say that a C1 surface rounds them; else more vertices, unless rounds with
     more did not help."""
     from ..approx.creases import CREASE_ANGLE
 
     if hull_slivers:
         return (f"the outline's {hull_slivers} hull slivers leave no scan vertex along its longest edges, where the "
                 "coarse faces cannot follow the data: --repair peels them")
+    if _below_noise(st):
+        return (f"the tolerance is below {NOISE_SIGMAS} times the scan's noise estimate {st['noise']:.3g}: raise it to "
+                f"{NOISE_SIGMAS * st['noise']:.3g} or more (a finer fit would follow the noise)")
     over, creased = st.get("over_tolerance", 0), st.get("over_near_creases", 0)
     if over and creased >= CREASE_SHARE * over:
         which = ("the scan vertex over it lies on or beside a sharp crease" if over == 1 else
@@ -234,8 +245,7 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
         ui.warn(m)
     data = _summary(args, result, mesh, seconds)
     st = result.stats
-    if (st["tolerance"] is not None and st["tolerance"] < NOISE_SIGMAS * st["noise"]
-            and st["noise_correlation"] <= NOISE_CORRELATION_MAX):  # else the "noise" is the quadrics' model error
+    if _below_noise(st):
         ui.warn(f"the tolerance {st['tolerance']:.3g} is below {NOISE_SIGMAS} times the scan's noise estimate "
                 f"{st['noise']:.3g}: it can only be met by following the noise")
     if st["tolerance"] is not None and st["outline_gap"] > st["tolerance"] and not args.outline_tolerance:
@@ -258,11 +268,12 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
                 f"max deviation is {st['deviation']['max']:.3g}"
                 + (f", the outline's largest gap {st['outline_gap']:.3g}" if args.outline_tolerance else "")
                 + f" ({st['stop']})")
+        advice = _advice(st, result.history, st["hull_slivers"])
         if args.strict:
             ui.result(data, _text)
-            print(f"{PROG}: error: {what}; nothing written (--strict)", file=sys.stderr)
+            print(f"{PROG}: error: {what}; nothing written (--strict); {advice}", file=sys.stderr)
             return EXIT_CHECK
-        ui.warn(f"{what}; {_advice(st, result.history, st['hull_slivers'])}")
+        ui.warn(f"{what}; {advice}")
     surface = extras(result, result.weights, args.param, mesh.source, None)
     if mesh.kept is not None:  # coarse vertex -> vertex of the mesh file
         from trispline.spline.surface import SplineSurface

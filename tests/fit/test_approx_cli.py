@@ -79,6 +79,7 @@ def test_unmet_tolerance_warns_or_fails_with_strict(scan, tmp_path, capsys):
     assert rc == 3 and not out.exists()
     assert err.strip().splitlines()[-1].startswith("trispline: error: the tolerance")
     assert "nothing written (--strict)" in err
+    assert "raise it to" in err.strip().splitlines()[-1]  # the advice too: the tolerance is below the noise
 
 
 def test_vertices_alone_fits_at_most_that_many(scan, tmp_path, capsys):
@@ -126,6 +127,9 @@ def test_the_advice_on_an_unmet_tolerance_follows_the_rounds():
     assert "the fit kept has 27 vertices: the rounds up to 100 deviated more" in _advice({"vertices": 27}, rounds)
     # an outline of hull slivers (scattered points triangulated): no budget helps along its edges, peeling does
     assert _advice({"vertices": 100}, rounds, hull_slivers=12).endswith("--repair peels them")
+    noisy = {"vertices": 100, "tolerance": 1e-3, "noise": 1e-3, "noise_correlation": 0.0}
+    assert "below 4.5 times the scan's noise estimate 0.001: raise it to 0.0045 or more" in _advice(noisy, rounds)
+    assert _advice({**noisy, "noise_correlation": 0.9}, rounds) == "raise --vertices or the tolerance"  # model error
     # most of the misses at sharp creases: a C1 surface rounds them, so the advice says so instead
     creased = {"vertices": 100, "over_tolerance": 10, "over_near_creases": 6}
     assert "6 of the 10 scan vertices over it lie on or beside sharp creases" in _advice(creased, rounds)
