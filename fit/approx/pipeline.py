@@ -97,10 +97,12 @@ WORST_TIE = 0.1
 #: (what the gap is for) is many times it.
 GAP_TIE = 1.5
 #: Whether a refinement round whose fit has a nearly singular patch (:data:`~.fit.PINCHED`) chooses the data
-#: weight again on its domain (cross-validated, :func:`~.fit.cross_validated_weight`) and, where that is lower,
-#: refits and refines on with it: a weight chosen on a few vertices can overfit many (the peeled 3,000-point
-#: terrain tile at 3e-3: 1e6 from its first domain, 124 vertices later 0.2% of a patch's area element left
-#: somewhere, |H| 484 against the terrain's 0.03).
+#: weight again on its domain (cross-validated, :func:`~.fit.cross_validated_weight` with ``regular``) and, where
+#: that differs, refits and refines on with it: a weight chosen on a few vertices can overfit many (the peeled
+#: 3,000-point terrain tile at 3e-3: 1e6 from its first domain, 124 vertices later 0.2% of a patch's area
+#: element left somewhere, |H| 484 against the terrain's 0.03); either way, as the domain's own optimum moves
+#: (beetle at 2%: 1e6 -> 1e5 -> 3e3 -> 1e4 over the rounds; lowering only, it stayed at 3e3 and its RMS rose
+#: 1.37e-4 -> 1.79e-4, against 1.66e-4).
 REWEIGH_PINCHED = True
 #: A budget alone: the final fit (at the closest points, its RMS often half the round's) replaces the best
 #: round unless its worst deviation is larger by more than this share (a 100k-face clean scan: RMS 1.9e-5
@@ -623,7 +625,7 @@ def _refine(V: np.ndarray, F: np.ndarray, dom: CoarseDomain, opt: _Options, scal
         stage("deviation", record=record)
         if opt.auto and REWEIGH_PINCHED and state.pinched.any():  # the weight chosen again on this domain
             weights = _smoothing(dom, V, opt, located, fit.unreached, regular=True)
-            if weights.data < opt.weights.data:
+            if weights.data != opt.weights.data:
                 opt = dataclasses.replace(opt, weights=weights)
                 fit, located = _round_fit(V, dom, opt, scale)
                 state = measure(dom, V, fit, located, scale is not None, seconds=time.perf_counter() - t0,
