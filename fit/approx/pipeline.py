@@ -96,13 +96,14 @@ WORST_TIE = 0.1
 #: larger of the two kept a seed of a quarter of the budget; a patch swinging out where it has few data
 #: (what the gap is for) is many times it.
 GAP_TIE = 1.5
-#: Whether a refinement round whose fit has a nearly singular patch (:data:`~.fit.PINCHED`) chooses the data
+#: With a tolerance (a budget alone asks for the least deviation, and gets the weight chosen at its start):
+#: whether a refinement round whose fit has a nearly singular patch (:data:`~.fit.PINCHED`) chooses the data
 #: weight again on its domain (cross-validated, :func:`~.fit.cross_validated_weight` with ``regular``) and, where
 #: that differs, refits and refines on with it: a weight chosen on a few vertices can overfit many (the peeled
 #: 3,000-point terrain tile at 3e-3: 1e6 from its first domain, 124 vertices later 0.2% of a patch's area
-#: element left somewhere, |H| 484 against the terrain's 0.03); either way, as the domain's own optimum moves
-#: (beetle at 2%: 1e6 -> 1e5 -> 3e3 -> 1e4 over the rounds; lowering only, it stayed at 3e3 and its RMS rose
-#: 1.37e-4 -> 1.79e-4, against 1.66e-4).
+#: element left somewhere, |H| 484 against the terrain's 0.03); either way, as the domain's own optimum moves.
+#: Not with a budget alone: the beetle at 2% of its vertices then took 1e5 -> 3e3 -> 1e4 over the rounds and
+#: its data-to-model RMS rose from 0.21 to 0.42 of quadric decimation's (issue 15's target: 1/3).
 REWEIGH_PINCHED = True
 #: A budget alone: the final fit (at the closest points, its RMS often half the round's) replaces the best
 #: round unless its worst deviation is larger by more than this share (a 100k-face clean scan: RMS 1.9e-5
@@ -623,7 +624,7 @@ def _refine(V: np.ndarray, F: np.ndarray, dom: CoarseDomain, opt: _Options, scal
         record = dict(state.record(), round=r + 1, tolerance=opt.tolerance, budget=opt.budget)
         history.append(record)
         stage("deviation", record=record)
-        if opt.auto and REWEIGH_PINCHED and state.pinched.any():  # the weight chosen again on this domain
+        if opt.refine and opt.auto and REWEIGH_PINCHED and state.pinched.any():  # the weight chosen again here
             weights = _smoothing(dom, V, opt, located, fit.unreached, regular=True)
             if weights.data != opt.weights.data:
                 opt = dataclasses.replace(opt, weights=weights)
@@ -688,7 +689,7 @@ def _final(V: np.ndarray, F: np.ndarray, best: Round, opt: _Options, scale: np.n
     raise the maximum deviation. Returns the state kept and its weights."""
     t0 = time.perf_counter()
     located, unreached = (best.located, best.fit.unreached) if opt.refine else _located(best.dom, best)
-    weights = (_smoothing(best.dom, V, opt, located, unreached, regular=bool(best.pinched.any()))
+    weights = (_smoothing(best.dom, V, opt, located, unreached, regular=opt.refine and bool(best.pinched.any()))
                if (opt.auto and refined) else opt.weights)
     state, kept = best, None
     for k in range(1 if opt.refine else 1 + FINAL_CORRECTIONS):
