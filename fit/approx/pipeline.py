@@ -48,12 +48,11 @@ from ..weights import FitWeights
 from .analysis import SPIKE_LEVELS
 from .deviation import Deviation, summary
 from .domain import DEFAULT_FRACTION, BoundaryBudgetError, CoarseDomain, LostHolesError, coarse_domain, insert
-from .fit import (APPROX_WEIGHTS, corrected_location, cross_validated_weight, fit_domain, quadric_reference,
-                  scan_location)
+from .fit import (APPROX_WEIGHTS, PINCHED, corrected_location, cross_validated_weight, fit_domain,
+                  quadric_reference, scan_location)
 from .creases import near_creases
 from .holes import SMALL_HOLE, folded_holes, small_holes, span_holes
 from .problem import CORNER_MODES
-from .fit import PINCHED
 from .refine import Round, measure, outline_gaps, pick_vertices
 
 __all__ = ["ApproxResult", "approximate_surface", "APPROX_STAGES", "LOSS_NAMES", "DEFAULT_BUDGET_FRACTION",
@@ -615,23 +614,24 @@ def _refine(V: np.ndarray, F: np.ndarray, dom: CoarseDomain, opt: _Options, scal
     """
     best, history, stop = None, [], "rounds"
     threshold = opt.tolerance if opt.refine else BUDGET_THRESHOLD * float(np.ptp(V, axis=0).max())
-    for r in range(max_rounds):
-        t0 = time.perf_counter()
+    def fitted(t0: float) -> tuple[Round, dict]:
+        """The round's fit over ``dom`` with ``opt``'s weights, measured, and its record."""
         fit, located = _round_fit(V, dom, opt, scale)
         stage("fit")
         state = measure(dom, V, fit, located, scale is not None, seconds=time.perf_counter() - t0,
                         outline=opt.outline, scan_faces=None if opt.refine else F)
-        record = dict(state.record(), round=r + 1, tolerance=opt.tolerance, budget=opt.budget)
+        return state, dict(state.record(), round=r + 1, tolerance=opt.tolerance, budget=opt.budget)
+
+    for r in range(max_rounds):
+        t0 = time.perf_counter()
+        state, record = fitted(t0)
         history.append(record)
         stage("deviation", record=record)
         if opt.refine and opt.auto and REWEIGH_PINCHED and state.pinched.any():  # the weight chosen again here
-            weights = _smoothing(dom, V, opt, located, fit.unreached, regular=True)
+            weights = _smoothing(dom, V, opt, state.located, state.fit.unreached, regular=True)
             if weights.data != opt.weights.data:
                 opt = dataclasses.replace(opt, weights=weights)
-                fit, located = _round_fit(V, dom, opt, scale)
-                state = measure(dom, V, fit, located, scale is not None, seconds=time.perf_counter() - t0,
-                                outline=opt.outline, scan_faces=None if opt.refine else F)
-                history[-1] = dict(state.record(), round=r + 1, tolerance=opt.tolerance, budget=opt.budget)
+                state, history[-1] = fitted(t0)
                 stage("smoothing", record=history[-1])
         if best is None or _better(state, best, opt):  # with a tolerance, the inliers' maximum deviation
             best = state
@@ -663,7 +663,7 @@ def _better(state: Round, best: Round, opt: _Options, tie: float = WORST_TIE) ->
     of the best's."""
     if opt.refine:  # a round that meets the tolerance with no nearly singular patch beats one with
         if state.pinched.any() != best.pinched.any():  # (refinement's pick, _refine), and only such a round
-            regular, pinched = (state, best) if best.pinched.any() else (best, state)
+            regular = best if state.pinched.any() else state
             if opt.deviation(regular) <= opt.tolerance:
                 return regular is state
         return state.worst < best.worst
@@ -768,7 +768,6 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
         ctrl=net, c1_residual=float(continuity_report(tri, ctrl)["c1_relative"]),
         max_interpolation_error=float(np.abs(corners - V[dom.vertices][tri.faces]).max()), weights=weights,
         located=state.located)
-
 
 
 #: The deviation statistics stored in the surface file, in order (``approx_deviation``).
