@@ -249,9 +249,10 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
         ui.warn(f"the tolerance {st['tolerance']:.3g} is below {NOISE_SIGMAS} times the scan's noise estimate "
                 f"{st['noise']:.3g}: it can only be met by following the noise")
     if st["tolerance"] is not None and st["outline_gap"] > st["tolerance"] and not args.outline_tolerance:
-        ui.warn(f"the surface's boundary stands up to {st['outline_gap']:.3g} from the scan's outline, beyond the "
-                f"tolerance (a chord spans a notch or a hole's bay, where the scan has no data; the tolerance "
-                f"holds for the scan's vertices): --outline-tolerance refines there too")
+        ui.warn(f"the surface's boundary stands up to {st['outline_gap']:.3g} ({st['outline_gap'] / st['tolerance']:.2g} "
+                f"times the tolerance) from the scan's outline, with no scan data under it: a chord across a notch, "
+                f"a hole's bay or a ragged run of the outline (the tolerance holds for the scan's vertices); "
+                f"--outline-tolerance refines there too")
     from trispline.param.tables import SMALL_HOLE
 
     from ..approx.pipeline import PINCHED
