@@ -126,6 +126,9 @@ TOLERANCE_CORRECTIONS = 3
 #: rise at one correction and fall at the next: face_gpjs 0.99 -> 1.04 -> 0.93 -> 0.90 of the tolerance, its RMS
 #: 0.178 -> 0.151 -> 0.141 -> 0.135; the generated bumps scan's RMS 0.104 -> 0.103, its maximum up: stopped).
 CORRECTION_GAIN = 0.98
+#: ... and none where the final fit's inliers' RMS deviation is already the scan's noise estimate (a fit at its noise
+#: floor: no correction lowered it; the generated 100k-face scan 1.09 times its noise, beetle 1.65, each ~2 s a
+#: correction for nothing; the scans they improved 0.16-0.74).
 #: ... on scans of at most this many vertices (one correction of a 1M-face scan costs ~11 s, beside the 84 s of
 #: its whole approximation: issue 15's speed target is 90 s).
 TOLERANCE_CORRECTION_POINTS = 250_000
@@ -714,7 +717,8 @@ def _final(V: np.ndarray, F: np.ndarray, best: Round, opt: _Options, scale: np.n
         state = dataclasses.replace(state, corrections=k + (not opt.refine))
         if kept is None or state.worst < kept.worst:
             kept = state
-        if opt.refine and state.inliers["rms"] > CORRECTION_GAIN * rms:  # a tolerance: stop where one does not help
+        if opt.refine and (state.inliers["rms"] > CORRECTION_GAIN * rms  # a tolerance: stop where one does not help,
+                           or state.inliers["rms"] >= best.dom.stats.noise):  # or none can (at the noise floor)
             break
         rms = state.inliers["rms"]
         located, unreached = _located(best.dom, state)
