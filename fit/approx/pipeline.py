@@ -119,7 +119,7 @@ IRLS_STEPS = 1
 FINAL_CORRECTIONS = 3
 #: A tolerance: parameter corrections after its final fit (each a refit and its scan-to-surface deviation; the fit
 #: of the smallest largest deviation kept). At 1e-3 of the diagonal on the shared scans the deviation's RMS fell
-#: 4-36% and its maximum up to 31%, the outline's gap up to 61% (snail 4.0 -> 1.6 times the tolerance, lilium
+#: 6-36% and its maximum up to 31%, the outline's gap up to 61% (snail 4.0 -> 1.6 times the tolerance, lilium
 #: 1.5 -> 1.0), with the same vertices (benchmarks/README.md, issue 15, the twenty-third session).
 TOLERANCE_CORRECTIONS = 3
 #: ... stopping at the first whose inliers' RMS deviation is above this share of the last fit's (the maximum may
