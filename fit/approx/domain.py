@@ -193,6 +193,11 @@ class CoarseDomain:
         return OUTLINE_WARP and self.scan_faces is not None
 
     @cached_property
+    def outline_ids(self) -> np.ndarray:
+        """``(b,)`` the scan's boundary vertices, loop after loop (:attr:`loops` joined)."""
+        return np.concatenate(self.loops) if self.loops else np.empty(0, np.int64)
+
+    @cached_property
     def triangulation(self) -> Triangulation:
         """The validated :class:`Triangulation` (what ``build_space`` takes)."""
         return Triangulation(self.uv, self.faces)

@@ -162,8 +162,7 @@ def corrected_location(dom: CoarseDomain, closest_uv: np.ndarray, on_boundary: n
     face, bary, unreached = scan_location(dom)
     hit = dom.locate(np.asarray(closest_uv, np.float64))
     use = ~hit.clamped & ~np.asarray(on_boundary, bool)
-    if dom.loops:
-        use[np.concatenate(dom.loops)] = False
+    use[dom.outline_ids] = False
     face[use], bary[use] = hit.face[use], hit.bary[use]
     unreached[use] = False
     return face, bary, unreached

@@ -126,9 +126,6 @@ TOLERANCE_CORRECTIONS = 3
 #: rise at one correction and fall at the next: face_gpjs 0.99 -> 1.04 -> 0.93 -> 0.90 of the tolerance, its RMS
 #: 0.178 -> 0.151 -> 0.141 -> 0.135; the generated bumps scan's RMS 0.104 -> 0.103, its maximum up: stopped).
 CORRECTION_GAIN = 0.98
-#: ... and none where the final fit's inliers' RMS deviation is already the scan's noise estimate (a fit at its noise
-#: floor: no correction lowered it; the generated 100k-face scan 1.09 times its noise, beetle 1.65, each ~2 s a
-#: correction for nothing; the scans they improved 0.16-0.74).
 #: ... on scans of at most this many vertices (one correction of a 1M-face scan costs ~11 s, beside the 84 s of
 #: its whole approximation: issue 15's speed target is 90 s).
 TOLERANCE_CORRECTION_POINTS = 250_000
@@ -588,7 +585,7 @@ def _insert(dom: CoarseDomain, ids: np.ndarray) -> CoarseDomain:
     try:
         return insert(dom, ids)
     except InputError:
-        inner = ids[~np.isin(ids, np.concatenate(dom.loops))]
+        inner = ids[~np.isin(ids, dom.outline_ids)]
         try:
             return insert(dom, inner) if inner.size < ids.size else dom
         except InputError:
@@ -697,7 +694,8 @@ def _final(V: np.ndarray, F: np.ndarray, best: Round, opt: _Options, scale: np.n
     """The final fit on the best round's domain: with a robust loss its minimum by Gauss--Newton; with
     cross-validated weights and a refined domain, the weight chosen again on it. Then parameter corrections
     (the scan at the last fit's closest points, :func:`_located`; :data:`FINAL_CORRECTIONS` with a budget
-    alone, :data:`TOLERANCE_CORRECTIONS` with a tolerance), keeping the fit of smallest
+    alone; with a tolerance up to :data:`TOLERANCE_CORRECTIONS`, stopping by :data:`CORRECTION_GAIN` or at the
+    scan's noise estimate), keeping the fit of smallest
     :attr:`~.refine.Round.worst` (the largest deviation, both ways with a budget: what the refinement minimises;
     on exact data the corrections change nothing, the closest points being the scan's own parameters). With a
     tolerance it replaces the best round only if it meets the tolerance too or does not raise the maximum
@@ -717,8 +715,10 @@ def _final(V: np.ndarray, F: np.ndarray, best: Round, opt: _Options, scale: np.n
         state = dataclasses.replace(state, corrections=k + (not opt.refine))
         if kept is None or state.worst < kept.worst:
             kept = state
-        if opt.refine and (state.inliers["rms"] > CORRECTION_GAIN * rms  # a tolerance: stop where one does not help,
-                           or state.inliers["rms"] >= best.dom.stats.noise):  # or none can (at the noise floor)
+        # a tolerance: stop where a correction does not help, or where none can: the fit's RMS is already the scan's
+        # noise estimate (at that floor none lowered it: the generated 100k-face scan at 1.09 times its noise,
+        # beetle 1.65, ~2 s a correction for nothing; the scans they improved 0.16-0.74)
+        if opt.refine and (state.inliers["rms"] > CORRECTION_GAIN * rms or state.inliers["rms"] >= best.dom.stats.noise):
             break
         rms = state.inliers["rms"]
         located, unreached = _located(best.dom, state)

@@ -156,7 +156,7 @@ def measure(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit, located: tuple[np.
         resid = dom.analysis.residual
         rejected = (dom.analysis.isolated(dev.distance) & (dev.distance > REJECT_SIGMAS * dom.stats.noise)
                     & (resid >= REJECT_AGREEMENT * dev.distance) & (REJECT_AGREEMENT * resid <= dev.distance))
-        ids = np.concatenate(dom.loops)
+        ids = dom.outline_ids
         rejected[ids] &= dom.analysis.outlier[ids] >= OUTLINE_REJECT_ROUGHNESS
     return Round(dom=dom, fit=fit, located=located, deviation=dev, rejected=rejected,
                  inliers=summary(dev.distance, ~rejected), seconds=seconds,
@@ -175,7 +175,7 @@ def outline_gaps(dom: CoarseDomain, V: np.ndarray, fit: CoarseFit) -> np.ndarray
     to the curve, not at the vertex's nearest boundary parameter: a curve that passes by the scan's outline
     with its parameters slid along it is no gap (a half-pipe's outline 0.71 of the tolerance away, its
     points 1.11 from the curve's point at their own parameters)."""
-    ids = np.concatenate(dom.loops)
+    ids = dom.outline_ids
     edge, _, _ = dom.locator.project(dom.scan_uv[ids])
     near = dom.locator.beside(edge)  # (m, 3)
     E, slot = np.unique(near, return_inverse=True)
@@ -242,7 +242,7 @@ def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray
     np.maximum.at(worst, star_face, d[dom.vertices[dom.faces[star_face, star_corner]]])  # a coarse vertex: its star
     limit = int(min(room, np.ceil((GROWTH - 1.0) * dom.stats.n_vertices)))
     on_loop = np.zeros(d.size, bool)
-    on_loop[np.concatenate(dom.loops)] = True
+    on_loop[dom.outline_ids] = True
     usable = (~dom.analysis.spike | on_loop | dom.analysis.crease) & ~state.rejected
     usable[dom.vertices] = False
     if exclude is not None:
