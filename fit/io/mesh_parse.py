@@ -3,7 +3,8 @@ of the binary ones, each raising :class:`~trispline.param.MeshError` with the fi
 
 OBJ and OFF are parsed here (trimesh's OBJ reader drops unreferenced vertices silently when
 ``vt`` lines are present and keeps only one ``vt`` per vertex without saying so; its OFF
-reader fails on mixed polygon sizes). PLY, STL and GLB/GLTF go through
+reader fails on mixed polygon sizes), and so is a binary PLY of triangles (:func:`read_binary_ply`:
+the scanners' format, without trimesh's ~1 s import). Other PLYs, STL and GLB/GLTF go through
 ``trimesh.load(..., process=False)`` after their headers are checked against the file size
 (:func:`check_ply_header`, :func:`check_stl_size`): a header that claims more elements than
 the file can hold is refused before anything is allocated.
@@ -21,7 +22,7 @@ from trispline.param.errors import MeshError
 from trispline.spline.errors import first_few
 
 __all__ = ["ObjMesh", "fan_triangulate", "read_obj", "read_off", "check_ply_header", "check_stl_size",
-           "read_trimesh"]
+           "read_binary_ply", "read_trimesh"]
 
 #: Why a file's ``vt`` give no uv when no face names one.
 _NO_FACE_VT = "its faces name no texture coordinates (f a/t b/t c/t)"
@@ -350,6 +351,83 @@ def _ply_single(header: list[str]) -> bool:
     return False
 
 
+#: numpy's type of each PLY scalar type (byte order added by the file's format).
+_PLY_TYPES = {"char": "i1", "uchar": "u1", "int8": "i1", "uint8": "u1", "short": "i2", "ushort": "u2", "int16": "i2",
+              "uint16": "u2", "int": "i4", "uint": "u4", "int32": "i4", "uint32": "u4", "float": "f4", "float32": "f4",
+              "double": "f8", "float64": "f8"}
+#: PLY formats read by :func:`read_binary_ply` and their byte order.
+_PLY_ORDER = {"binary_little_endian": "<", "binary_big_endian": ">"}
+
+
+def _ply_layout(header: list[str]) -> tuple[str, list[tuple[str, int, list[tuple[str, ...]]]]] | None:
+    """``(format, [(element, count, properties)])`` of a PLY header; each property ``(type, name)`` or
+    ``("list", count type, item type, name)``; None where a line is not one of these."""
+    fmt, elements = "", []
+    for tok in (ln.split() for ln in header[1:]):
+        if not tok or tok[0] in ("comment", "obj_info"):
+            continue
+        if tok[0] == "format" and len(tok) == 3:
+            fmt = tok[1]
+        elif tok[0] == "element" and len(tok) == 3 and tok[2].isdigit():
+            elements.append((tok[1], int(tok[2]), []))
+        elif tok[0] == "property" and elements and (len(tok) == 3 or (len(tok) == 5 and tok[1] == "list")):
+            elements[-1][2].append(tuple(tok[1:]))
+        else:
+            return None
+    return fmt, elements
+
+
+def _ply_dtype(props: list[tuple[str, ...]], order: str, face: bool) -> np.dtype | None:
+    """The record type of a binary PLY element of ``props``: scalars, and for a ``face`` its one list
+    read as a triangle (count then three indices); None for any other list or type."""
+    fields = []
+    for i, prop in enumerate(props):
+        if prop[0] == "list":
+            if not face or prop[3] not in ("vertex_indices", "vertex_index") or prop[1] not in _PLY_TYPES \
+                    or _PLY_TYPES.get(prop[2], "f")[0] == "f" or _PLY_TYPES[prop[1]][0] == "f":
+                return None
+            fields += [("n", order + _PLY_TYPES[prop[1]]), ("corners", order + _PLY_TYPES[prop[2]], (3,))]
+        elif prop[0] in _PLY_TYPES:
+            fields.append((f"p{i}_{prop[1]}", order + _PLY_TYPES[prop[0]]))
+        else:
+            return None
+    return np.dtype(fields)
+
+
+def read_binary_ply(path: Path) -> tuple[np.ndarray, np.ndarray, bool] | None:
+    """``(V, F, single)`` of a binary PLY triangle mesh read straight into numpy, or None for any other
+    PLY (ASCII, polygons of other sizes, other elements or lists), which trimesh reads instead.
+
+    Why: the scanners' own format, and ``import trimesh`` alone costs ~1 s of a command line that
+    reads nothing else with it (issue 15's 100k-face scan: 18 s end to end). The header is checked
+    first (:func:`check_ply_header`); ``single``: ``x, y, z`` stored as 4-byte floats."""
+    single = check_ply_header(path)
+    with open(path, "rb") as fh:
+        blob = fh.read(_PLY_MAX_HEADER)
+    end = blob.find(b"end_header")
+    start = end + len(b"end_header")
+    start += 2 if blob[start:start + 2] == b"\r\n" else 1
+    layout = _ply_layout(blob[:end].decode("ascii", "replace").splitlines())
+    if layout is None or layout[0] not in _PLY_ORDER or [e[0] for e in layout[1]] != ["vertex", "face"]:
+        return None
+    order = _PLY_ORDER[layout[0]]
+    (_, nv, vprops), (_, nf, fprops) = layout[1]
+    vtype, ftype = _ply_dtype(vprops, order, False), _ply_dtype(fprops, order, True)
+    names = [p[1] for p in vprops]
+    if vtype is None or ftype is None or "n" not in ftype.names or not {"x", "y", "z"} <= set(names):
+        return None
+    if path.stat().st_size != start + nv * vtype.itemsize + nf * ftype.itemsize:
+        return None  # polygons of other sizes (or bytes after the data): trimesh's general reader
+    with open(path, "rb") as fh:
+        fh.seek(start)
+        verts = np.fromfile(fh, vtype, nv)
+        faces = np.fromfile(fh, ftype, nf)
+    if len(verts) != nv or len(faces) != nf or (faces["n"] != 3).any():
+        return None
+    V = np.stack([verts[f"p{names.index(c)}_{c}"].astype(np.float64) for c in "xyz"], axis=1)
+    return V, faces["corners"].astype(np.int64), single
+
+
 def check_stl_size(path: Path) -> None:
     """Refuse a file that is neither ASCII STL nor a binary STL of the size its header claims."""
     size = path.stat().st_size
@@ -372,6 +450,10 @@ def read_trimesh(path: Path, ext: str) -> tuple[np.ndarray, np.ndarray, bool]:
     """``(V, F, single)`` through ``trimesh.load(process=False)``; an STL's exactly equal corners merged
     (first occurrence first), because STL has no other notion of shared vertices. ``single``: the file
     stores the coordinates in single precision (binary PLY of ``float`` vertices, STL, GLB/GLTF)."""
+    if ext == ".ply":
+        fast = read_binary_ply(path)
+        if fast is not None:
+            return fast
     import trimesh
 
     single = ext in (".stl", ".glb", ".gltf")

@@ -182,3 +182,81 @@ def test_beetle_keeps_coincident_vertices():
     m = read_mesh(path)
     assert m.V.shape[0] == nv_file == 19887
     assert np.unique(m.V, axis=0).shape[0] < m.V.shape[0]  # coincident vertices exist and stay apart
+
+
+def _ply(path, V, F, *, order="<", vertex_extra=(), face_extra=(), count="u1", index="i4", coord="f4",
+         sizes=None, ascii_=False) -> None:
+    """A PLY written here field by field: ``vertex_extra`` / ``face_extra`` scalar properties
+    ``(type, name)`` after the coordinates / the list, ``sizes`` polygon sizes (default all 3; a face
+    of size k takes the first k of ``F``'s row, padded by repeating its last corner)."""
+    tn = {"u1": "uchar", "i1": "char", "u2": "ushort", "i2": "short", "u4": "uint", "i4": "int", "f4": "float",
+          "f8": "double"}
+    sizes = np.full(len(F), 3) if sizes is None else np.asarray(sizes)
+    head = [f"ply", f"format {'ascii' if ascii_ else {'<': 'binary_little_endian', '>': 'binary_big_endian'}[order]} 1.0",
+            "comment written by the test", f"element vertex {len(V)}", *(f"property {tn[coord]} {c}" for c in "xyz"),
+            *(f"property {tn[t]} {n}" for t, n in vertex_extra), f"element face {len(F)}",
+            f"property list {tn[count]} {tn[index]} vertex_indices", *(f"property {tn[t]} {n}" for t, n in face_extra),
+            "end_header"]
+    rows = np.concatenate([F, np.repeat(F[:, -1:], 1, axis=1)], axis=1)
+    if ascii_:
+        body = "".join(" ".join(f"{x:.17g}" for x in v) + " 0" * len(vertex_extra) + "\n" for v in V)
+        body += "".join(" ".join(map(str, [k, *r[:k]])) + " 0" * len(face_extra) + "\n" for k, r in zip(sizes, rows))
+        path.write_bytes(("\n".join(head) + "\n" + body).encode())
+        return
+    vt = np.dtype([(c, order + coord) for c in "xyz"] + [(n, order + t) for t, n in vertex_extra])
+    verts = np.zeros(len(V), vt)
+    for i, c in enumerate("xyz"):
+        verts[c] = V[:, i]
+    body = verts.tobytes()
+    for k, r in zip(sizes, rows):  # the faces one record each: their sizes differ
+        ft = np.dtype([("n", order + count), ("v", order + index, (int(k),))] + [(n, order + t) for t, n in face_extra])
+        rec = np.zeros(1, ft)
+        rec["n"], rec["v"] = k, r[:k]
+        body += rec.tobytes()
+    path.write_bytes(("\n".join(head) + "\n").encode() + body)
+
+
+PLY_VARIANTS = {  # name: options of _ply
+    "float": {}, "double": {"coord": "f8"}, "big endian": {"order": ">"},
+    "colours and normals": {"vertex_extra": (("u1", "red"), ("u1", "green"), ("u1", "blue"), ("f4", "nx"))},
+    "face flags": {"face_extra": (("i4", "flags"),)}, "uint indices, ushort counts": {"count": "u2", "index": "u4"},
+    "ascii": {"ascii_": True}, "a quad": {"sizes": "quad"},
+}
+
+
+@pytest.mark.parametrize("name", list(PLY_VARIANTS))
+def test_ply_variants_read_as_trimesh_reads_them(tmp_path, mesh, name):
+    """Binary triangle PLYs are read straight into numpy (no trimesh import), every other PLY by trimesh:
+    either way the same vertices, faces and precision flag as ``trimesh.load``."""
+    from trispline.fit.io.mesh_parse import read_binary_ply, read_trimesh
+
+    V, F = mesh
+    opts = dict(PLY_VARIANTS[name])
+    if opts.get("sizes") == "quad":
+        opts["sizes"] = np.r_[4, np.full(len(F) - 1, 3)]
+    path = tmp_path / "m.ply"
+    _ply(path, V, F, **opts)
+    fast = read_binary_ply(path)
+    assert (fast is None) == (name in ("ascii", "a quad"))
+    if name == "a quad":  # mixed polygon sizes: left to trimesh (whose binary reader refuses this one)
+        return
+    got_V, got_F, single = read_trimesh(path, ".ply")
+    ref = trimesh.load(path, process=False, force="mesh", maintain_order=True)
+    np.testing.assert_array_equal(got_V, np.asarray(ref.vertices, np.float64))
+    np.testing.assert_array_equal(got_F, np.asarray(ref.faces, np.int64))
+    assert single == (opts.get("coord", "f4") == "f4")  # the header's type, as check_ply_header reads it
+    if fast is None:
+        return
+    assert fast[0].dtype == np.float64 and fast[1].dtype == np.int64
+    tol = 0 if opts.get("coord") == "f8" else 1e-6
+    np.testing.assert_allclose(fast[0], V, rtol=0, atol=tol)
+    np.testing.assert_array_equal(fast[1], F)
+
+
+def test_a_truncated_binary_ply_is_refused_by_its_header(tmp_path, mesh):
+    V, F = mesh
+    path = tmp_path / "m.ply"
+    _ply(path, V, F)
+    path.write_bytes(path.read_bytes()[:-40])
+    with pytest.raises(MeshError, match="truncated"):
+        read_mesh(path)
