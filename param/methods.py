@@ -12,10 +12,10 @@ mirrors, checks, repairs and normalises them.
 * ``slim``: SLIM (Rabinovich et al. 2017) on the conformal (MIPS) energy ``s1/s2 + s2/s1``,
   started from the harmonic map where that is fold-free, else from the Tutte embedding (fold-free
   by Floater's theorem), holes filled: the energy is infinite on a fold, so every step stays
-  fold-free, while it drives the map to conformal like LSCM; the boundary is free. (From the harmonic
+  fold-free, while it drives the map to conformal like LSCM; the boundary is free. From the harmonic
   map, already conformal inside, SLIM has only the outline to relax: on a noisy 100k-face scan 3
-  iterations, 5 s, against 21 and 35 s from Tutte's, to a lower energy; docs/param.md.) (SLIM's symmetric Dirichlet energy, which also
-  evens out areas, sheared more triangles and fitted with larger spikes on the shared
+  iterations, 5 s, against 21 and 35 s from Tutte's, to a lower energy (docs/param.md). (SLIM's
+  symmetric Dirichlet energy, which also evens out areas, sheared more triangles and fitted with larger spikes on the shared
   meshes and on nearly closed spheres: docs/param.md.)
 * ``uv``: the given coordinates, or ``V[:, :2]`` (height fields).
 """
@@ -127,11 +127,10 @@ def slim_start(Vx: np.ndarray, Fx: np.ndarray, outer: np.ndarray) -> np.ndarray:
     """SLIM's fold-free start ``(nv, 2)`` on a hole-filled mesh ``Vx, Fx`` with outline ``outer``: the
     harmonic map (:func:`harmonic_uv`) where it folds nothing, else the Tutte embedding (its cotangent
     weights can fold a mesh of obtuse triangles; Tutte's uniform ones cannot)."""
-    circle = _igl.circle_boundary(Vx, outer)
-    start = _igl.harmonic(Vx, Fx, outer, circle)
+    start = harmonic_uv(Vx, Fx, outer)
     if np.isfinite(start).all() and not np.logical_or(*fold_mask(start, Fx)).any():
         return start
-    return tutte(Fx, Vx.shape[0], outer, circle)
+    return tutte(Fx, Vx.shape[0], outer, _igl.circle_boundary(Vx, outer))
 
 
 def _given_uv(vm: ValidatedMesh, uv: np.ndarray | None) -> np.ndarray:
