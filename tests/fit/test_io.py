@@ -192,7 +192,7 @@ def _ply(path, V, F, *, order="<", vertex_extra=(), face_extra=(), count="u1", i
     tn = {"u1": "uchar", "i1": "char", "u2": "ushort", "i2": "short", "u4": "uint", "i4": "int", "f4": "float",
           "f8": "double"}
     sizes = np.full(len(F), 3) if sizes is None else np.asarray(sizes)
-    head = [f"ply", f"format {'ascii' if ascii_ else {'<': 'binary_little_endian', '>': 'binary_big_endian'}[order]} 1.0",
+    head = ["ply", f"format {'ascii' if ascii_ else {'<': 'binary_little_endian', '>': 'binary_big_endian'}[order]} 1.0",
             "comment written by the test", f"element vertex {len(V)}", *(f"property {tn[coord]} {c}" for c in "xyz"),
             *(f"property {tn[t]} {n}" for t, n in vertex_extra), f"element face {len(F)}",
             f"property list {tn[count]} {tn[index]} vertex_indices", *(f"property {tn[t]} {n}" for t, n in face_extra),
