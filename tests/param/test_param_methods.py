@@ -344,21 +344,21 @@ def test_a_validation_the_caller_has_is_not_run_again(monkeypatch):
 
 def test_slim_starts_from_the_harmonic_map_where_it_folds_nothing_else_from_tutte(monkeypatch):
     """SLIM's start: the harmonic map (near-conformal inside: few iterations) when fold-free, else Tutte's
-    embedding; the SLIM map from it is fold-free and at most as sheared as the harmonic map."""
+    embedding (every inner vertex the mean of its neighbours, the outline on the same circle); the SLIM map
+    from it is fold-free and at most as sheared as the harmonic map."""
+    import trispline.param.methods as methods
     from trispline.fit.datasets.analytic import analytic_mesh
-    from trispline.param import _igl, validate_mesh
+    from trispline.param import validate_mesh
     from trispline.param.distortion import face_distortion, fold_mask, score, summarize
-    from trispline.param.methods import raw_map, slim_start
     from trispline.param.repair import fill_holes, tutte
 
     m = analytic_mesh("bump_hole", 800)
     vm = validate_mesh(m.V, m.F)
     Vx, Fx = fill_holes(vm.V, vm.F, vm.boundary_loops[1:])
     outer = vm.boundary_loops[0]
-    circle = _igl.circle_boundary(Vx, outer)
-    harmonic = _igl.harmonic(Vx, Fx, outer, circle)
-    np.testing.assert_array_equal(slim_start(Vx, Fx, outer), harmonic)
-    uv = raw_map(vm, "slim")
+    harmonic = methods.harmonic_uv(Vx, Fx, outer)
+    np.testing.assert_array_equal(methods.slim_start(Vx, Fx, outer), harmonic)
+    uv = methods.raw_map(vm, "slim")
     assert not np.logical_or(*fold_mask(uv, vm.F)).any()
     sheared = lambda x: score(summarize(*face_distortion(vm.V, vm.F, x[: len(vm.V)])))  # noqa: E731
     assert sheared(uv) <= sheared(harmonic)
@@ -366,5 +366,8 @@ def test_slim_starts_from_the_harmonic_map_where_it_folds_nothing_else_from_tutt
     folded = harmonic.copy()
     folded[inner[:2]] = folded[inner[:2]][::-1]  # two inner vertices swapped: their triangles flip
     assert np.logical_or(*fold_mask(folded, Fx)).any()
-    monkeypatch.setattr(_igl, "harmonic", lambda *a: folded)
-    np.testing.assert_array_equal(slim_start(Vx, Fx, outer), tutte(Fx, len(Vx), outer, circle))
+    monkeypatch.setattr(methods, "harmonic_uv", lambda *a: folded)
+    start = methods.slim_start(Vx, Fx, outer)
+    np.testing.assert_allclose(start[outer], harmonic[outer], atol=1e-12)  # the same circle
+    np.testing.assert_allclose(start, tutte(Fx, len(Vx), outer, harmonic[outer]), atol=1e-12)
+    assert not np.logical_or(*fold_mask(start, Fx)).any()
