@@ -989,3 +989,29 @@ def test_a_signal_swallowed_while_outputs_are_written_leaves_none(tmp_path, caps
     assert err.strip() in ("trispline: terminated", "trispline: interrupted") and "Exception ignored" not in err
     assert (tmp_path / "out.txt").read_text() == "old" and [p.name for p in tmp_path.iterdir()] == ["out.txt"]
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+
+
+def test_a_nearly_indefinite_matrix_that_factors_is_refused_by_its_net(monkeypatch):
+    """Whether the normal matrix of a triangle too thin for float64 factors is rounding luck (the random square's
+    did after a rounding-level change of its map, and its net reached 2.9 bounding-box diagonals out): a solved net
+    reaching past ``WILD_NET`` diagonals outside the data's box is refused with the same message."""
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    import trispline.fit.pipeline as pipeline
+    from trispline.fit import fit_surface
+    from trispline.fit.errors import NotPositiveDefinite
+    from trispline.param.testing import lift
+    from trispline.spline.testing.domains import random_delaunay
+
+    V, F = lift(*random_delaunay(40, seed=2))
+    fitted = fit_surface(V, F)
+    reach = pipeline.net_reach(fitted.ctrl, V)
+    assert 0.0 <= reach < 0.01  # a sound fit's net stays at its data
+    box = np.ptp(V, axis=0)
+    far = fitted.ctrl.copy()
+    far[0, 0] = V.min(0) - [2.0 * np.linalg.norm(box), 0.0, 0.0]
+    assert pipeline.net_reach(far, V) == pytest.approx(2.0)
+    monkeypatch.setattr(pipeline, "WILD_NET", 0.5 * reach)  # the same fit, judged as if wild
+    with pytest.raises(NotPositiveDefinite, match=r"nearly indefinite .* control net reaches .* thinnest triangles"):
+        fit_surface(V, F)
