@@ -125,6 +125,34 @@ def _well_posed(G: np.ndarray) -> np.ndarray:
     return ev[:, 0] >= SMOOTH_RCOND * np.maximum(ev[:, -1], np.finfo(float).tiny)
 
 
+def _first_columns(G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(ok (n,), z (n, p))``: which normal matrices ``G (n, p, p)`` are well posed (:func:`_well_posed`),
+    and the first columns of their inverses (zero where not).
+
+    Most pass a cheaper sufficient test first: ``|G|_F |G^-1|_F``, at least the 2-norm condition number,
+    at most ``1 / SMOOTH_RCOND`` (an inverse, 5 us a 10 x 10 matrix, against 8 us for its eigenvalues and
+    2 us for the solve they guarded: the smoothing's local fits 1.43 -> 1.13 CPU s on 40k vertices of a
+    100k-face scan); the rest are judged by their eigenvalues, as before."""
+    n, p = G.shape[:2]
+    z, ok = np.zeros((n, p)), np.zeros(n, bool)
+    try:
+        inv = np.linalg.inv(G)
+    except np.linalg.LinAlgError:  # an exactly singular one (too few points): every row the exact way
+        inv = None
+    if inv is not None:
+        kappa = np.linalg.norm(G, axis=(1, 2)) * np.linalg.norm(inv, axis=(1, 2))
+        ok = np.isfinite(kappa) & (kappa * SMOOTH_RCOND <= 1.0)
+        z[ok] = inv[ok, :, 0]
+    rest = np.flatnonzero(~ok)
+    good = rest[_well_posed(G[rest])] if rest.size else rest
+    if good.size:
+        e0 = np.zeros((good.size, p, 1))
+        e0[:, 0] = 1.0
+        z[good] = np.linalg.solve(G[good], e0)[..., 0]
+        ok[good] = True
+    return ok, z
+
+
 def fit_weights(x: np.ndarray, w: np.ndarray, degree: int) -> np.ndarray:
     """Weights ``s (n, m)``: ``sum_j s_j y_j`` is the value at 0 of the weighted least-squares
     polynomial through values ``y_j`` at ``x (n, m, k)`` (``k`` = 1 or 2), weights ``w (n, m)``.
@@ -142,13 +170,10 @@ def fit_weights(x: np.ndarray, w: np.ndarray, degree: int) -> np.ndarray:
     todo = np.arange(len(w))
     for d in range(degree, 0, -1):
         p = _n_coef(d, dim)
-        rows = todo[_well_posed(G[todo, :p, :p])]
-        todo = np.setdiff1d(todo, rows, assume_unique=True)
+        ok, z = _first_columns(G[todo, :p, :p])
+        rows, todo = todo[ok], todo[~ok]
         if rows.size:
-            e0 = np.zeros((rows.size, p, 1))
-            e0[:, 0] = 1.0
-            z = np.linalg.solve(G[rows, :p, :p], e0)
-            out[rows] = np.matmul(wphi[rows, :, :p], z)[..., 0]
+            out[rows] = np.matmul(wphi[rows, :, :p], z[ok][..., None])[..., 0]
         if todo.size == 0:
             break
     return out

@@ -347,3 +347,24 @@ def test_slim_stops_after_the_iteration_that_passes_its_time_budget():
     assert seen == [0.2] and np.isfinite(uv).all()
     assert not np.logical_or(*fold_mask(uv, F)).any()
 
+
+def test_the_cheap_well_posedness_test_agrees_with_the_eigenvalues():
+    """``_first_columns``: the same rows well posed as ``_well_posed`` (rcond by eigenvalues) and their
+    inverses' first columns, for well and badly conditioned, rank-deficient and exactly singular normal
+    matrices in one batch (an exactly singular one makes the batched inverse fail: every row the exact way)."""
+    from trispline.param.smooth import _first_columns, _well_posed
+
+    rng = np.random.default_rng(7)
+    Q = np.linalg.qr(rng.normal(size=(12, 10, 10)))[0]
+    rcond = np.array([1.0, 1e-2, 1e-6, 3e-8, 1.5e-8, 0.7e-8, 1e-9, 1e-12, 0.0, 1.0, 1e-4, 1e-10])
+    spectra = np.linspace(1.0, 0.0, 10)[None, :] * (1 - rcond[:, None]) + rcond[:, None]
+    G = np.einsum("nij,nj,nkj->nik", Q, spectra, Q)
+    singular = np.concatenate([G, np.diag(np.r_[np.ones(9), 0.0])[None]])  # an exact zero pivot
+    with pytest.raises(np.linalg.LinAlgError):
+        np.linalg.inv(singular)
+    for batch in (G, singular):
+        ok, z = _first_columns(batch)
+        np.testing.assert_array_equal(ok, _well_posed(batch))
+        assert ok.sum() >= 5 and (~ok).sum() >= 2
+        np.testing.assert_allclose(z[ok], np.linalg.inv(batch[ok])[:, :, 0], rtol=1e-6, atol=1e-9)
+        assert not z[~ok].any()
