@@ -32,10 +32,14 @@ _BOM = b"\xef\xbb\xbf"
 _OFF_MIN_VERTEX, _OFF_MIN_FACE = 6, 8
 #: Longest PLY header read (real headers have a few hundred bytes).
 _PLY_MAX_HEADER = 1 << 16
+#: numpy's type of each PLY scalar type (byte order added by the file's format).
+_PLY_TYPES = {"char": "i1", "uchar": "u1", "int8": "i1", "uint8": "u1", "short": "i2", "ushort": "u2", "int16": "i2",
+              "uint16": "u2", "int": "i4", "uint": "u4", "int32": "i4", "uint32": "u4", "float": "f4", "float32": "f4",
+              "double": "f8", "float64": "f8"}
 #: Bytes of each PLY scalar type.
-_PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2,
-              "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4,
-              "double": 8, "float64": 8}
+_PLY_SIZES = {name: np.dtype(code).itemsize for name, code in _PLY_TYPES.items()}
+#: PLY formats read by :func:`read_binary_ply` and their byte order.
+_PLY_ORDER = {"binary_little_endian": "<", "binary_big_endian": ">"}
 
 
 def _unreadable(path: Path, what: str) -> MeshError:
@@ -349,14 +353,6 @@ def _ply_single(header: list[str]) -> bool:
             if tok[1] in ("float", "float32"):
                 return True
     return False
-
-
-#: numpy's type of each PLY scalar type (byte order added by the file's format).
-_PLY_TYPES = {"char": "i1", "uchar": "u1", "int8": "i1", "uint8": "u1", "short": "i2", "ushort": "u2", "int16": "i2",
-              "uint16": "u2", "int": "i4", "uint": "u4", "int32": "i4", "uint32": "u4", "float": "f4", "float32": "f4",
-              "double": "f8", "float64": "f8"}
-#: PLY formats read by :func:`read_binary_ply` and their byte order.
-_PLY_ORDER = {"binary_little_endian": "<", "binary_big_endian": ">"}
 
 
 def _ply_layout(header: list[str]) -> tuple[str, list[tuple[str, int, list[tuple[str, ...]]]]] | None:
