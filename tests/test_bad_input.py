@@ -991,27 +991,29 @@ def test_a_signal_swallowed_while_outputs_are_written_leaves_none(tmp_path, caps
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
 
 
-def test_a_nearly_indefinite_matrix_that_factors_is_refused_by_its_net(monkeypatch):
+def test_a_nearly_indefinite_matrix_that_factors_is_refused_by_its_surface(monkeypatch):
     """Whether the normal matrix of a triangle too thin for float64 factors is rounding luck (the random square's
-    did after a rounding-level change of its map, and its net reached 2.9 bounding-box diagonals out): a solved net
-    reaching past ``WILD_NET`` diagonals outside the data's box is refused with the same message."""
+    did after a rounding-level change of its map, and its net reached 2.9 bounding-box diagonals out): a solved
+    surface reaching past ``WILD_NET`` diagonals outside the data's box is refused with the same message. The
+    surface is judged, not its net: a hull sliver's net reaches far beyond its patch, which is accepted."""
     import jax
 
     jax.config.update("jax_enable_x64", True)
     import trispline.fit.pipeline as pipeline
     from trispline.fit import fit_surface
     from trispline.fit.errors import NotPositiveDefinite
-    from trispline.param.testing import lift
-    from trispline.spline.testing.domains import random_delaunay
 
-    V, F = lift(*random_delaunay(40, seed=2))
+    V, F = _random_square(seed=0, n=40)  # hull slivers: the net reaches 0.22 diagonals out, the surface 0.11
     fitted = fit_surface(V, F)
-    reach = pipeline.net_reach(fitted.ctrl, V)
-    assert 0.0 <= reach < 0.01  # a sound fit's net stays at its data
-    box = np.ptp(V, axis=0)
+    net = float(pipeline.box_reach(fitted.ctrl, V).max())
+    surface = pipeline.surface_reach(fitted.ctrl, V, 0.0)
+    assert 0.0 < surface < 0.75 * net < 0.5
+    assert pipeline.surface_reach(fitted.ctrl, V, net) == pytest.approx(net)  # no net past it: the net's bound
     far = fitted.ctrl.copy()
-    far[0, 0] = V.min(0) - [2.0 * np.linalg.norm(box), 0.0, 0.0]
-    assert pipeline.net_reach(far, V) == pytest.approx(2.0)
-    monkeypatch.setattr(pipeline, "WILD_NET", 0.5 * reach)  # the same fit, judged as if wild
-    with pytest.raises(NotPositiveDefinite, match=r"nearly indefinite .* control net reaches .* thinnest triangles"):
+    far[0, 0] = V.min(0) - [2.0 * np.linalg.norm(np.ptp(V, axis=0)), 0.0, 0.0]  # a corner: the surface goes there
+    assert pipeline.surface_reach(far, V, 0.5) == pytest.approx(2.0)
+    monkeypatch.setattr(pipeline, "WILD_NET", 0.5 * (surface + net))  # past the net only: accepted
+    assert np.allclose(fit_surface(V, F).ctrl, fitted.ctrl, rtol=0, atol=1e-9)
+    monkeypatch.setattr(pipeline, "WILD_NET", 0.5 * surface)  # the same fit, judged as if wild
+    with pytest.raises(NotPositiveDefinite, match=r"nearly indefinite .* solved surface reaches .* thinnest triangles"):
         fit_surface(V, F)
