@@ -221,7 +221,10 @@ def warning(summary: dict[str, Any], folds: int = 0, method: str | None = None) 
                    f"above {AREA_DISTORTION_WARN:g}")
     if not why:
         return None
-    if sheared and method not in ("slim", "auto"):
+    if sheared and method == "uv":  # the user's own parameters: another map would change what is fitted
+        advice = ("; the fit may spike there: the given uv is used as is (thin triangles: trispline info --repair; "
+                  "or --param auto maps the mesh itself)")
+    elif sheared and method not in ("slim", "auto"):
         advice = "; the fit may spike there: try --param auto or --param slim"
     elif sheared:
         advice = "; the fit may spike there: check the mesh for slivers and folds (trispline info --repair)"

@@ -137,6 +137,7 @@ def test_warning_names_what_is_distorted():
     sheared = dict(base, angle_max=2 * ANGLE_DISTORTION_WARN)
     assert "angle distortion max" in warning(sheared, method="lscm") and "--param auto" in warning(sheared, method="lscm")
     assert "--param auto" not in warning(sheared, method="auto")
+    assert "given uv is used as is" in warning(sheared, method="uv")  # a height field's own parameters
     shrunk = dict(base, area_p99=2 * AREA_DISTORTION_WARN, area_max=3 * AREA_DISTORTION_WARN)
     assert "area distortion p99" in warning(shrunk) and "spike" not in warning(shrunk)
 
