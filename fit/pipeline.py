@@ -24,9 +24,7 @@ from trispline.param import DEFAULT_METHOD, face_aspects, hull_sliver_faces, ref
 from trispline.spline.checks import as_array
 from trispline.spline.continuity import continuity_report
 from trispline.spline.errors import InputError
-from trispline.spline.bernstein import bary_grid
 from trispline.spline.index import CORNER
-from trispline.spline.patches import evaluate_grid
 from trispline.spline.propagation import SplineSpace, build_space, working_origin
 from trispline.spline.surface import SplineSurface
 from trispline.spline.topology import Triangulation, signed_areas
@@ -38,6 +36,7 @@ from .errors import FitError, NotPositiveDefinite
 from .gauss_newton import QuadraticStep, iterate
 from .limits import check_fit_memory
 from .progress import counting, silent, span, stage_reporter
+from .reach import surface_reach
 from .solve import PatternAnalysis, check_memory, estimate_factor_bytes, release_free_heap, require_x64
 from .stages import ASSEMBLE, BUILD, FACTOR, FINISH, PARAMETERIZE, SOLVE
 from .weights import FitWeights
@@ -268,27 +267,6 @@ THIN_NAMED = 5
 #: hull sliver of scattered points reaches 0.5-1.2 diagonals out while its patch stays within 0.04 (6 of 15 random
 #: Delaunay height fields of 500-8000 faces).
 WILD_NET = 0.5
-#: Lattice steps per edge on which a patch whose net reaches past ``WILD_NET`` is sampled.
-REACH_STEPS = 16
-
-
-def box_reach(points: np.ndarray, V: np.ndarray) -> np.ndarray:
-    """``(...)`` how far each of ``points (..., 3)`` lies outside the bounding box of ``V (n, 3)``, in
-    bounding-box diagonals (0 inside)."""
-    lo, hi = V.min(0), V.max(0)
-    out = np.maximum(np.maximum(lo - points, points - hi), 0.0)
-    return np.sqrt((out * out).sum(-1)) / max(float(np.linalg.norm(hi - lo)), np.finfo(float).tiny)
-
-
-def surface_reach(ctrl: np.ndarray, V: np.ndarray, beyond: float) -> float:
-    """How far the surface of ``ctrl (F, 21, 3)`` reaches outside the bounding box of ``V (n, 3)``, in
-    bounding-box diagonals. A patch lies in its net's convex hull, so only the patches whose net reaches past
-    ``beyond`` are sampled (``REACH_STEPS``); where none does, the net's reach (at most ``beyond``) is returned."""
-    net = box_reach(ctrl, V).max(1)  # (F,)
-    wild = np.flatnonzero(net > beyond)
-    if wild.size == 0:
-        return float(net.max(initial=0.0))
-    return float(box_reach(evaluate_grid(ctrl[wild], bary_grid(REACH_STEPS))[0], V).max())
 
 
 def _thin_triangles(uv: np.ndarray, faces: np.ndarray, V: np.ndarray, why: str) -> str:

@@ -1002,16 +1002,17 @@ def test_a_nearly_indefinite_matrix_that_factors_is_refused_by_its_surface(monke
     import trispline.fit.pipeline as pipeline
     from trispline.fit import fit_surface
     from trispline.fit.errors import NotPositiveDefinite
+    from trispline.fit.reach import box_reach, surface_reach
 
     V, F = _random_square(seed=0, n=40)  # hull slivers: the net reaches 0.22 diagonals out, the surface 0.11
     fitted = fit_surface(V, F)
-    net = float(pipeline.box_reach(fitted.ctrl, V).max())
-    surface = pipeline.surface_reach(fitted.ctrl, V, 0.0)
+    net = float(box_reach(fitted.ctrl, V).max())
+    surface = surface_reach(fitted.ctrl, V, 0.0)
     assert 0.0 < surface < 0.75 * net < 0.5
-    assert pipeline.surface_reach(fitted.ctrl, V, net) == pytest.approx(net)  # no net past it: the net's bound
+    assert surface_reach(fitted.ctrl, V, net) == pytest.approx(net)  # no net past it: the net's bound
     far = fitted.ctrl.copy()
     far[0, 0] = V.min(0) - [2.0 * np.linalg.norm(np.ptp(V, axis=0)), 0.0, 0.0]  # a corner: the surface goes there
-    assert pipeline.surface_reach(far, V, 0.5) == pytest.approx(2.0)
+    assert surface_reach(far, V, 0.5) == pytest.approx(2.0)
     monkeypatch.setattr(pipeline, "WILD_NET", 0.5 * (surface + net))  # past the net only: accepted
     assert np.allclose(fit_surface(V, F).ctrl, fitted.ctrl, rtol=0, atol=1e-9)
     monkeypatch.setattr(pipeline, "WILD_NET", 0.5 * surface)  # the same fit, judged as if wild

@@ -39,6 +39,7 @@ from trispline.spline.util.spd import spd_backend
 from trispline.spline.tolerances import APPROX_CG_RTOL, APPROX_CONVERGED_GRAD_RTOL, APPROX_GN_ATOL, APPROX_GN_RTOL
 
 from ..gauss_newton import DescentGaussNewton
+from ..reach import surface_reach
 from ..solve import FactorSolver, SparseCholesky
 from ..weights import FitWeights
 from .domain import CoarseDomain
@@ -68,6 +69,11 @@ PINCHED = 0.1
 #: its held-out score is at most this much worse than the best's (the noisy built-in scan: 3e4 at 1.024x; a
 #: terrain tile whose hull slivers pinch at every weight but the smallest: 300 at 1.52x, 3 at 2.81x, refused).
 REGULAR_SLACK = 0.1
+#: A candidate data weight whose fit reaches farther than this many bounding-box diagonals outside the scan's box
+#: (:func:`~trispline.fit.reach.surface_reach`) is passed over while another stays within: held-out scan vertices
+#: do not see a patch overshooting between them (a steep ramp of 85 vertices at 3e-3 of its diagonal: 3e4 scored
+#: best and its surface spiked 0.67 diagonals above the scan; 3e3 met the tolerance within 0.006).
+WILD_REACH = 0.05
 #: Monomial exponents of the reference quadric.
 QUADRIC_POWERS = np.array([(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)])
 #: The robust Gauss--Newton steps' linear solve (:class:`~trispline.fit.solve.FactorSolver`): ``"pcg"``,
@@ -278,7 +284,7 @@ def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeig
     none = DataPoints(face[:0], bary[:0], Vn[:0])
     rim = plain_system(space, none, corner_xyz, weights, "l2", ref_net, bend_weight=bw * edge)  # the outline's bend
     B = basis(bary[test])
-    scores, least = {}, {}
+    scores, least, reach = {}, {}, {}
     factor = None
     backend = spd_backend(None, sys.unknowns.size, pardiso_min=0)  # one analysis for every candidate
     for w in candidates:
@@ -294,10 +300,12 @@ def cross_validated_weight(dom: CoarseDomain, V: np.ndarray, *, weights: FitWeig
         r = np.linalg.norm(np.einsum("nk,nkc->nc", B, ctrl[face[test]]) - Vn[test], axis=1)
         kept = np.sort(r)[: max(1, int(np.ceil(0.99 * r.size)))]
         scores[w] = float(np.sqrt(np.mean(kept**2))) * size
+        reach[w] = surface_reach(ctrl, Vn, WILD_REACH)
         if regular:
             least[w] = float(regularity(space.tri.uv, space.tri.faces, ctrl).min(initial=1.0))
-    best = min(scores, key=scores.get)
-    ok = [w for w in least if least[w] >= PINCHED and scores[w] <= (1.0 + REGULAR_SLACK) * scores[best]]
+    tame = [w for w in scores if reach[w] <= WILD_REACH] or list(scores)
+    best = min(tame, key=scores.get)
+    ok = [w for w in tame if w in least and least[w] >= PINCHED and scores[w] <= (1.0 + REGULAR_SLACK) * scores[best]]
     return (min(ok, key=scores.get) if ok else best), scores
 
 

@@ -43,12 +43,13 @@ from trispline.spline.util.timer import StageTimer
 from ..energy.robust import LOSSES, TUNING, inlier_weight
 from ..errors import FactorMemoryError
 from ..limits import APPROX_BYTES_PER_VERTEX, approx_vertex_room, estimate_approx_bytes
+from ..reach import surface_reach
 from ..solve import require_x64
 from ..weights import FitWeights
 from .analysis import SPIKE_LEVELS
 from .deviation import Deviation, summary
 from .domain import DEFAULT_FRACTION, BoundaryBudgetError, CoarseDomain, LostHolesError, coarse_domain, insert
-from .fit import (APPROX_WEIGHTS, PINCHED, corrected_location, cross_validated_weight, fit_domain,
+from .fit import (APPROX_WEIGHTS, PINCHED, WILD_REACH, corrected_location, cross_validated_weight, fit_domain,
                   quadric_reference, scan_location)
 from .creases import near_creases
 from .holes import SMALL_HOLE, folded_holes, small_holes, span_holes
@@ -56,7 +57,7 @@ from .problem import CORNER_MODES
 from .refine import Round, measure, outline_gaps, pick_vertices
 
 __all__ = ["ApproxResult", "approximate_surface", "APPROX_STAGES", "LOSS_NAMES", "DEFAULT_BUDGET_FRACTION",
-           "DEFAULT_BUDGET_MIN", "PINCHED", "surface_extras"]
+           "DEFAULT_BUDGET_MIN", "PINCHED", "WILD_REACH", "surface_extras"]
 
 #: Every data loss: the plain one and the robust ones.
 LOSS_NAMES = ("l2",) + LOSSES
@@ -343,11 +344,11 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str, span: list[np.ndarr
         return p.uv, p.faces, p
     F = span_holes(F, list(fill)) if fill else F
     X = _smoothed(V, F)
-    p = _free_map(X, F, param)
+    p = _free_map(X, F, param, V)
     shut = folded_holes(p.uv, p.faces, Triangulation(p.uv, p.faces).boundary_loops) + list(span)
     if shut:  # spanned, and the map made again over them
         messages, method = p.messages, p.method
-        p = _free_map(X, span_holes(p.faces, shut), param)
+        p = _free_map(X, span_holes(p.faces, shut), param, V)
         left = folded_holes(p.uv, p.faces, Triangulation(p.uv, p.faces).boundary_loops)
         if left:
             raise InputError(f"the {p.method} map folds {len(left)} holes of the scan shut even after spanning "
@@ -361,9 +362,11 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str, span: list[np.ndarr
     return p.uv, p.faces, p
 
 
-def _free_map(X: np.ndarray, F: np.ndarray, param: str):
-    """The ``param`` map of the smoothed scan ``X``, one-to-one; a folded LSCM map replaced by the harmonic one.
-    No polynomial map (``parameterize(polynomial=False)``): not measured on the approximation's benchmarks."""
+def _free_map(X: np.ndarray, F: np.ndarray, param: str, V: np.ndarray | None = None):
+    """The ``param`` map of the smoothed scan ``X``, one-to-one; a folded LSCM map replaced by the LSCM map of the
+    scan ``V`` itself where that folds nothing (the smoothing can turn a hull sliver over: a flat scan's), else by
+    the harmonic map of ``X``. No polynomial map (``parameterize(polynomial=False)``): not measured on the
+    approximation's benchmarks."""
     from trispline.param import MeshError, parameterize
 
     try:
@@ -371,8 +374,17 @@ def _free_map(X: np.ndarray, F: np.ndarray, param: str):
     except MeshError as exc:
         if "folded" not in exc.kinds:
             raise
+        why = str(exc).splitlines()[0].split(':')[0]
+        if V is not None:
+            try:
+                p = parameterize(V, F, method=param, repair=False, embedded=True, polynomial=False)
+                p.messages.append(f"{why} after the scan's smoothing; the map of the scan itself is used")
+                return p
+            except MeshError as raw:
+                if "folded" not in raw.kinds:
+                    raise
         p = parameterize(X, F, method="harmonic", embedded=True, polynomial=False)
-        p.messages.append(f"{str(exc).splitlines()[0].split(':')[0]}; the harmonic map is used instead")
+        p.messages.append(f"{why}; the harmonic map is used instead")
         return p
 
 
@@ -779,7 +791,7 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
                  hull_slivers=int(hull_sliver_faces(V, parameterization.faces).sum()),
                  holes_filled=opt.filled,
                  small_holes=len(small_holes(V, parameterization.faces, SMALL_HOLE)),
-                 regularity=float(state.regularity.min(initial=1.0)))
+                 regularity=float(state.regularity.min(initial=1.0)), reach=surface_reach(ctrl, V, WILD_REACH))
     settings = dict(loss=opt.loss, corners=opt.corners, tolerance=opt.tolerance, budget=opt.budget, scale=nominal,
                     data_weight=float(weights.data), fill_holes=opt.fill_holes)
     extras = surface_extras(dom, fit, V, stats, settings, weights)

@@ -255,8 +255,13 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
                 f"--outline-tolerance refines there too")
     from trispline.param.tables import SMALL_HOLE
 
-    from ..approx.pipeline import PINCHED
+    from ..approx.pipeline import PINCHED, WILD_REACH
 
+    if st["reach"] > WILD_REACH:
+        cure = ("the outline's hull slivers (--repair peels them)" if st["hull_slivers"]
+                else "a map the scan's own shape distorts (try --param harmonic or slim)")
+        ui.warn(f"the surface strays {st['reach']:.2g} bounding-box diagonals outside the scan's box, between its "
+                f"vertices (a patch folds or overshoots there): {cure}")
     if st["regularity"] < PINCHED:
         chosen = f" than the cross-validated {st['data_weight']:g}" if st["cross_validated"] else ""
         ui.warn(f"the surface is nearly singular in a patch (its smallest area element is {st['regularity']:.2g} of "

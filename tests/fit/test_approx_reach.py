@@ -1,0 +1,67 @@
+"""An approximation stays at its scan: a data weight whose surface overshoots between the scan's points is passed
+over, a map the smoothing folded is made of the scan itself, and a surface that still strays is reported."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+from trispline.fit.approx import approximate_surface
+from trispline.fit.approx import fit as approx_fit
+from trispline.fit.approx.pipeline import WILD_REACH
+from trispline.fit.cli import main
+from trispline.fit.reach import box_reach, surface_reach
+from trispline.spline.testing.domains import grid, slivered_hull
+
+
+def far_ramp() -> tuple[np.ndarray, np.ndarray]:
+    """A steep ramp (5 tanh(20 (x - 1/2)) over the unit square's criss-cross grid of 85 vertices) at coordinates
+    near 1e6, rounded as an OBJ file stores them: cross-validation scored 3e4 best, whose surface spiked 0.69
+    diagonals above the scan between its vertices."""
+    P, F = grid(7, diagonal="crisscross")
+    return np.round(np.c_[P, 5.0 * np.tanh(20.0 * (P[:, 0] - 0.5))] + 1e6, 8), F
+
+
+def flat_slivers(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """A flat scan: 30 points of the unit square and 8 hull points 1 to 100 above it (slivers of aspect 1e3)."""
+    P, F = slivered_hull(30, 8, 1e-3, 5.0, seed=seed)
+    return np.c_[P, np.zeros(len(P))], F
+
+
+def test_the_reach_of_a_surface_is_its_distance_outside_the_box_in_diagonals():
+    V = np.array([[0.0, 0.0, 0.0], [3.0, 4.0, 0.0]])  # diagonal 5
+    assert box_reach(np.array([[1.0, 1.0, 0.0], [3.0, 9.0, 0.0], [-3.0, -4.0, 0.0]]), V) == pytest.approx([0, 1, 1])
+    ctrl = np.zeros((1, 21, 3))
+    ctrl[0, 0] = [0.0, 14.0, 0.0]  # a corner point of the patch: the surface goes there
+    assert surface_reach(ctrl, V, 0.5) == pytest.approx(2.0)
+    ctrl[0, 0] = [0.0, 4.0, 0.0]
+    assert surface_reach(ctrl, V, 0.5) == 0.0
+
+
+def test_a_weight_whose_surface_overshoots_between_the_scan_points_is_passed_over(monkeypatch):
+    V, F = far_ramp()
+    tame = approximate_surface(V, F, tolerance_rel=3e-3)
+    assert tame.stats["met"] and tame.stats["reach"] <= WILD_REACH
+    monkeypatch.setattr(approx_fit, "WILD_REACH", np.inf)  # every weight judged by its held-out points alone
+    wild = approximate_surface(V, F, tolerance_rel=3e-3)
+    assert wild.stats["met"] and wild.stats["reach"] > 10 * WILD_REACH
+    assert wild.stats["data_weight"] != tame.stats["data_weight"]
+
+
+def test_a_map_the_smoothing_folds_is_made_of_the_scan_itself():
+    V, F = flat_slivers(seed=2)
+    r = approximate_surface(V, F, tolerance_rel=3e-3)
+    assert any("the map of the scan itself is used" in m for m in r.parameterization.messages)
+    P1 = np.c_[V[:, :2], np.ones(len(V))]  # LSCM of a flat scan: a similarity of its plane
+    A, *_ = np.linalg.lstsq(P1, r.parameterization.uv, rcond=None)
+    assert np.abs(P1 @ A - r.parameterization.uv).max() <= 1e-9 * np.ptp(r.parameterization.uv)
+    assert r.stats["reach"] <= 1e-9 and np.abs(np.asarray(r.ctrl)[..., 2]).max() <= 1e-12
+
+
+def test_a_surface_that_strays_from_its_scan_is_reported(tmp_path, capsys):
+    V, F = flat_slivers(seed=6)  # its smoothing folds nothing, but drags vertices across the slivers
+    path = tmp_path / "flat.obj"
+    trimesh.Trimesh(V, F, process=False).export(path)
+    rc = main(["fit", str(path), "-o", str(tmp_path / "s.npz"), "--tolerance-rel", "3e-3", "-q"])
+    err = capsys.readouterr().err
+    line = next(x for x in err.splitlines() if "the surface strays" in x)
+    assert rc == 0 and "bounding-box diagonals outside the scan's box" in line and "--param" in line
