@@ -195,7 +195,7 @@ def _summary(args: argparse.Namespace, result: Any, mesh: Any, seconds: float) -
         deviation_all=st["deviation_all"], outline_gap=st["outline_gap"], outline_tolerance=bool(args.outline_tolerance),
         rejected=st["rejected"], noise=st["noise"], hull_slivers=st["hull_slivers"],
         over_tolerance=st["over_tolerance"], over_near_creases=st["over_near_creases"],
-        holes_filled=st["holes_filled"], small_holes=st["small_holes"], regularity=st["regularity"],
+        holes_filled=st["holes_filled"], small_holes=st["small_holes"], regularity=st["regularity"], reach=st["reach"],
         noise_correlation=st["noise_correlation"], rounds=result.history,
         weights=dataclasses.asdict(result.weights), data_weight=st["data_weight"],
         cross_validated=st["cross_validated"], energies=result.energies, iterations=int(result.iterations),

@@ -2,6 +2,8 @@
 over, a map the smoothing folded is made of the scan itself, and a surface that still strays is reported."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import trimesh
@@ -61,7 +63,9 @@ def test_a_surface_that_strays_from_its_scan_is_reported(tmp_path, capsys):
     V, F = flat_slivers(seed=6)  # its smoothing folds nothing, but drags vertices across the slivers
     path = tmp_path / "flat.obj"
     trimesh.Trimesh(V, F, process=False).export(path)
-    rc = main(["fit", str(path), "-o", str(tmp_path / "s.npz"), "--tolerance-rel", "3e-3", "-q"])
-    err = capsys.readouterr().err
+    rc = main(["fit", str(path), "-o", str(tmp_path / "s.npz"), "--tolerance-rel", "3e-3", "--json"])
+    out, err = capsys.readouterr()
     line = next(x for x in err.splitlines() if "the surface strays" in x)
     assert rc == 0 and "bounding-box diagonals outside the scan's box" in line and "--param" in line
+    assert json.loads(out)["reach"] == pytest.approx(float(line.split("strays ")[1].split()[0]), rel=0.05)
+    assert json.loads(out)["reach"] > WILD_REACH
