@@ -45,7 +45,7 @@ def test_a_weight_whose_surface_overshoots_between_the_scan_points_is_passed_ove
     assert tame.stats["met"] and tame.stats["reach"] <= WILD_REACH
     monkeypatch.setattr(approx_fit, "WILD_REACH", np.inf)  # every weight judged by its held-out points alone
     wild = approximate_surface(V, F, tolerance_rel=3e-3)
-    assert wild.stats["met"] and wild.stats["reach"] > 10 * WILD_REACH
+    assert wild.stats["met"] and wild.stats["reach"] > 5 * WILD_REACH
     assert wild.stats["data_weight"] != tame.stats["data_weight"]
 
 
@@ -60,12 +60,12 @@ def test_a_map_the_smoothing_folds_is_made_of_the_scan_itself():
 
 
 def test_a_surface_that_strays_from_its_scan_is_reported(tmp_path, capsys):
-    V, F = flat_slivers(seed=6)  # its smoothing folds nothing, but drags vertices across the slivers
+    V, F = flat_slivers(seed=9)  # its smoothing folds nothing, but drags vertices across the slivers
     path = tmp_path / "flat.obj"
     trimesh.Trimesh(V, F, process=False).export(path)
     rc = main(["fit", str(path), "-o", str(tmp_path / "s.npz"), "--tolerance-rel", "3e-3", "--json"])
     out, err = capsys.readouterr()
     line = next(x for x in err.splitlines() if "the surface strays" in x)
-    assert rc == 0 and "bounding-box diagonals outside the scan's box" in line and "--param" in line
+    assert rc == 0 and "bounding-box diagonals outside the scan's box" in line and "--repair peels them" in line
     assert json.loads(out)["reach"] == pytest.approx(float(line.split("strays ")[1].split()[0]), rel=0.05)
     assert json.loads(out)["reach"] > WILD_REACH
