@@ -215,11 +215,12 @@ def fit_surface(
     clock(SOLVE)
     result = _finish(V, space, prob, x, energies, centre, size, steps, ok, weights, parameterization,
                      stage_reporter(progress, FINISH))
-    if (reach := surface_reach(result["ctrl"], V, WILD_NET)) > WILD_NET:  # a nearly indefinite matrix that happened to factor
+    if (reach := surface_reach(result["ctrl"], V, OVERSHOOT)) > WILD_NET:  # a nearly indefinite matrix that happened to factor
         raise NotPositiveDefinite(_thin_triangles(space.tri.uv, space.tri.faces, V, (
             f"the normal matrix is nearly indefinite (it factored, but the solved surface reaches {reach:.3g} "
             "bounding-box diagonals outside the scan)")))
-    result["stats"].update(analysis_seconds=factor.analysis_seconds, analysis_wait_seconds=analysis.wait_seconds)
+    result["stats"].update(analysis_seconds=factor.analysis_seconds, analysis_wait_seconds=analysis.wait_seconds,
+                           reach=reach)
     clock(FINISH)
     if throw and not ok:
         raise FitError(
@@ -267,6 +268,10 @@ THIN_NAMED = 5
 #: hull sliver of scattered points reaches 0.5-1.2 diagonals out while its patch stays within 0.04 (6 of 15 random
 #: Delaunay height fields of 500-8000 faces).
 WILD_NET = 0.5
+#: ... and one reaching farther than this is reported (``stats["reach"]``; the command line warns): an interpolant
+#: passing through a spike or a step of coarse data overshoots (a 10 x 10 grid with one vertex 3 above a gentle
+#: wave: 0.21 diagonals; on a 20 x 20 grid 0.04).
+OVERSHOOT = 0.1
 
 
 def _thin_triangles(uv: np.ndarray, faces: np.ndarray, V: np.ndarray, why: str) -> str:

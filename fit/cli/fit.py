@@ -262,6 +262,7 @@ def _fit(args: argparse.Namespace, ui: UI, outputs: dict[str, Path | None],
     check_fit_memory(mesh.F.shape[0])  # before the parameterization (minutes at 1M faces)
     p, param_seconds = _parameterize(args, ui, mesh)
     result, fit_seconds = _solve(args, ui, mesh, p, weights)
+    _warn_overshoot(ui, result.stats["reach"])
     surface = _with_fit_extras(result, weights, args.param, mesh.source, mesh.kept, parameterization=p,
                                data=mesh.V)
     written = _write(args, ui, surface, outputs, extra_writes, (mesh.V, mesh.F))
@@ -274,11 +275,21 @@ def _fit(args: argparse.Namespace, ui: UI, outputs: dict[str, Path | None],
         weights=dataclasses.asdict(weights), energies=result.energies,
         energies_normalised=dict(zip(ex["fit_energy_names"].tolist(), ex["fit_energies_normalised"].tolist())),
         iterations=int(result.iterations), converged=bool(result.converged), c1_residual=float(result.c1_residual),
-        max_interpolation_error=float(result.max_interpolation_error),
+        max_interpolation_error=float(result.max_interpolation_error), reach=float(result.stats["reach"]),
         timings={**dict(result.timings), "parameterize": param_seconds}, seconds=fit_seconds + param_seconds,
         source_vertex_index=None if mesh.kept is None else "stored in the surface file",
         **_export_sizes(args, surface, outputs),
     )
+
+
+def _warn_overshoot(ui: UI, reach: float) -> None:
+    """A warning where the surface reaches farther than ``pipeline.OVERSHOOT`` outside the scan's box."""
+    from ..pipeline import OVERSHOOT
+
+    if reach > OVERSHOOT:
+        ui.warn(f"the surface overshoots the scan's box by {reach:.2g} bounding-box diagonals between its vertices: "
+                f"an interpolant through a spike or a step of coarse data swings past it (check the data there; "
+                f"--tolerance-rel approximates the scan instead of passing through every vertex)")
 
 
 def _load_input(args: argparse.Namespace, ui: UI) -> _Input:

@@ -1,5 +1,6 @@
-"""An approximation stays at its scan: a data weight whose surface overshoots between the scan's points is passed
-over, a map the smoothing folded is made of the scan itself, and a surface that still strays is reported."""
+"""A surface stays at its scan: an approximation passes over a data weight whose surface overshoots between the
+scan's points, makes a map the smoothing folded of the scan itself and reports a surface that still strays; an
+interpolating fit reports its overshoot through a spike."""
 from __future__ import annotations
 
 import json
@@ -12,6 +13,7 @@ from trispline.fit.approx import fit as approx_fit
 from trispline.fit.approx.pipeline import WILD_REACH
 from trispline.fit.cli import main
 from trispline.fit.reach import box_reach, surface_reach
+from trispline.fit.pipeline import OVERSHOOT
 from trispline.spline.testing.domains import grid, slivered_hull
 
 
@@ -69,3 +71,20 @@ def test_a_surface_that_strays_from_its_scan_is_reported(tmp_path, capsys):
     assert rc == 0 and "bounding-box diagonals outside the scan's box" in line and "--repair peels them" in line
     assert json.loads(out)["reach"] == pytest.approx(float(line.split("strays ")[1].split()[0]), rel=0.05)
     assert json.loads(out)["reach"] > WILD_REACH
+
+
+def test_an_interpolant_through_a_spike_of_coarse_data_reports_its_overshoot(tmp_path, capsys):
+    P, F = grid(10)
+    z = 0.1 * np.sin(3.0 * P[:, 0])
+    z[55] += 3.0  # one vertex far above a gentle wave
+    path = tmp_path / "spike.obj"
+    trimesh.Trimesh(np.c_[P, z], F, process=False).export(path)
+    rc = main(["fit", str(path), "-o", str(tmp_path / "s.npz"), "--json"])
+    out, err = capsys.readouterr()
+    assert rc == 0 and json.loads(out)["reach"] > OVERSHOOT
+    assert "the surface overshoots the scan's box by" in err and "--tolerance-rel" in err
+    z[55] -= 3.0
+    trimesh.Trimesh(np.c_[P, z], F, process=False).export(path)
+    assert main(["fit", str(path), "-o", str(tmp_path / "s.npz"), "--json"]) == 0
+    out, err = capsys.readouterr()
+    assert json.loads(out)["reach"] < 1e-3 and "overshoots" not in err
