@@ -288,7 +288,7 @@ def _warn_overshoot(ui: UI, reach: float) -> None:
 
     if reach > OVERSHOOT:
         ui.warn(f"the surface overshoots the scan's box by {reach:.2g} bounding-box diagonals between its vertices: "
-                f"an interpolant through a spike or a step of coarse data swings past it (check the data there; "
+                f"an interpolant through a spike, a step or a sliver of coarse data swings past it (check the data there; "
                 f"--tolerance-rel approximates the scan instead of passing through every vertex)")
 
 
