@@ -362,7 +362,7 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str, span: list[np.ndarr
     return p.uv, p.faces, p
 
 
-def _free_map(X: np.ndarray, F: np.ndarray, param: str, V: np.ndarray | None = None):
+def _free_map(X: np.ndarray, F: np.ndarray, param: str, V: np.ndarray):
     """The ``param`` map of the smoothed scan ``X``, one-to-one; a folded LSCM map replaced by the LSCM map of the
     scan ``V`` itself where that folds nothing (the smoothing can turn a hull sliver over: a flat scan's), else by
     the harmonic map of ``X``. No polynomial map (``parameterize(polynomial=False)``): not measured on the
@@ -375,14 +375,13 @@ def _free_map(X: np.ndarray, F: np.ndarray, param: str, V: np.ndarray | None = N
         if "folded" not in exc.kinds:
             raise
         why = str(exc).splitlines()[0].split(':')[0]
-        if V is not None:
-            try:
-                p = parameterize(V, F, method=param, repair=False, embedded=True, polynomial=False)
-                p.messages.append(f"{why} after the scan's smoothing; the map of the scan itself is used")
-                return p
-            except MeshError as raw:
-                if "folded" not in raw.kinds:
-                    raise
+        try:
+            p = parameterize(V, F, method=param, repair=False, embedded=True, polynomial=False)
+            p.messages.append(f"{why} after the scan's smoothing; the map of the scan itself is used")
+            return p
+        except MeshError as raw:
+            if "folded" not in raw.kinds:
+                raise
         p = parameterize(X, F, method="harmonic", embedded=True, polynomial=False)
         p.messages.append(f"{why}; the harmonic map is used instead")
         return p
