@@ -34,7 +34,7 @@ from .deviation import Deviation, distance_to_mesh, summary, surface_deviation
 from .domain import MIN_SEPARATION, CoarseDomain, coarse_index, separation
 from .fit import PINCHED, CoarseFit
 
-__all__ = ["Round", "measure", "outline_gaps", "surface_gaps", "faceting", "pick_vertices", "REJECT_SIGMAS", "GROWTH",
+__all__ = ["Round", "measure", "outline_gaps", "outline_humps", "surface_gaps", "faceting", "pick_vertices", "REJECT_SIGMAS", "GROWTH",
            "GAP_RESOLUTION"]
 
 #: A spike farther than this many noise standard deviations from the fit is rejected (robust losses only).
@@ -213,7 +213,28 @@ def faceting(dom: CoarseDomain, uv: np.ndarray) -> np.ndarray:
     return FACETING * a.lookup(a.curvature, uv) * h * h
 
 
-def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray | None = None) -> np.ndarray:
+def outline_humps(loops: list[np.ndarray], gap: np.ndarray, over: np.ndarray) -> np.ndarray:
+    """Scan ids: along each loop (scan ids in loop order), the vertex of largest ``gap (n,)`` in every run of
+    consecutive vertices where ``over (n,)`` holds (cyclic): one vertex per notch a chord spans."""
+    picks = []
+    for loop in loops:
+        o = over[loop]
+        if not o.any():
+            continue
+        if o.all():
+            picks.append(loop[np.argmax(gap[loop])])
+            continue
+        r = np.roll(loop, -int(np.argmin(o)))  # starts outside a run: no run wraps around
+        o = over[r]
+        run = np.cumsum(o & ~np.r_[False, o[:-1]])[o]  # run number of each vertex over
+        ids = r[o]
+        order = np.lexsort((-gap[ids], run))
+        picks.append(ids[order[np.r_[True, run[order][1:] != run[order][:-1]]]])
+    return np.unique(np.concatenate([np.atleast_1d(p) for p in picks])) if picks else np.empty(0, np.int64)
+
+
+def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray | None = None,
+                  humps: bool = False) -> np.ndarray:
     """Scan ids ``(<= room,)`` to insert: per coarse face holding an inlier over ``tolerance``, its best candidate.
 
     A face counts when any inlier located in it is over the tolerance, and every face around a
@@ -229,7 +250,10 @@ def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray
     barycentric coordinate, taken as ``INTERIOR_BARY`` for a scan boundary vertex: it moves the
     coarse boundary out to the scan's). Faces go in order of their largest deviation, at most
     ``room`` and at most ``(GROWTH - 1)`` times the vertex count. ``exclude``: scan ids not to pick
-    (ones an earlier try could not insert).
+    (ones an earlier try could not insert). ``humps`` (with :attr:`Round.outline`): also the outline's
+    :func:`outline_humps` over the tolerance, every notch a chord spans at once rather than one a face a round
+    (within the same limit, after the faces' picks; the 100k speed scan at 1e-3: 9 -> 6 rounds, 14.7 -> 7.7 s,
+    the 1M one 6 -> 3 rounds, 64 -> 41 s).
     """
     dom, d = state.dom, state.pick_distance
     face, bary = state.located
@@ -273,4 +297,10 @@ def pick_vertices(state: Round, tolerance: float, room: int, exclude: np.ndarray
     order = np.lexsort((-score, f))  # by face, best first
     first = order[np.r_[True, f[order][1:] != f[order][:-1]]]  # the best candidate of each face
     first = first[np.argsort(-worst[f[first]], kind="stable")][:limit]
-    return np.sort(ids[first])
+    picked = ids[first]
+    if humps and state.outline is not None:
+        ok = usable & on_loop
+        ok[picked] = False
+        extra = outline_humps(dom.loops, state.outline, ok & (state.outline > tolerance))
+        picked = np.concatenate([picked, extra[:max(limit - picked.size, 0)]])
+    return np.sort(picked)

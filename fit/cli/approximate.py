@@ -103,10 +103,11 @@ def add_options(p: argparse.ArgumentParser) -> None:
                         "(better on noisy scans)")
     g.add_argument("--loss", choices=("huber", "cauchy", "l2"), default=None,
                    help="data loss: huber (default), cauchy (ignores far outliers) or l2 (plain least squares)")
-    g.add_argument("--outline-tolerance", action="store_true", default=None,
-                   help="the tolerance holds for the outline too: where a coarse chord spans a notch or a bay of "
-                        "the scan's outline (no data under the surface there), refine until the surface's boundary "
-                        "is within it (more vertices along ragged outlines; default: reported, with a warning)")
+    g.add_argument("--outline-tolerance", action=argparse.BooleanOptionalAction, default=None,
+                   help="the tolerance holds for the outline too (default): where a coarse chord spans a notch or a "
+                        "bay of the scan's outline (no data under the surface there), refine until the surface's "
+                        "boundary is within it (more vertices along ragged outlines); --no-outline-tolerance: the "
+                        "gap is only reported, with a warning")
     g.add_argument("--fill-holes", type=nonnegative_int, default=None, metavar="K",
                    help="span holes with at most K vertices around (scanner dropouts) so that the surface goes "
                         "over them (default: every hole kept, each with three coarse vertices or more)")
@@ -176,7 +177,7 @@ def _approximate(args: argparse.Namespace, ui: UI, mesh: Any, weights: Any) -> t
         result = approximate_surface(mesh.V, mesh.F, tolerance=args.tolerance, tolerance_rel=args.tolerance_rel,
                                      n_vertices=args.vertices, corners=args.corners or "data",
                                      loss=args.loss or "huber", weights=weights, uv=mesh.uv, param=args.param,
-                                     progress=bar, outline_tolerance=bool(args.outline_tolerance),
+                                     progress=bar, outline_tolerance=args.outline_tolerance is not False,
                                      fill_holes=args.fill_holes or 0)
         return result, time.perf_counter() - t0
     finally:
@@ -192,7 +193,7 @@ def _summary(args: argparse.Namespace, result: Any, mesh: Any, seconds: float) -
         param_used=result.parameterization.repaired or result.parameterization.method,
         corners=result.settings["corners"], loss=result.settings["loss"], tolerance=st["tolerance"],
         budget=st["budget"], met=st["met"], stop=st["stop"], deviation=st["deviation"],
-        deviation_all=st["deviation_all"], outline_gap=st["outline_gap"], outline_tolerance=bool(args.outline_tolerance),
+        deviation_all=st["deviation_all"], outline_gap=st["outline_gap"], outline_tolerance=args.outline_tolerance is not False,
         rejected=st["rejected"], noise=st["noise"], hull_slivers=st["hull_slivers"],
         over_tolerance=st["over_tolerance"], over_near_creases=st["over_near_creases"],
         holes_filled=st["holes_filled"], small_holes=st["small_holes"], regularity=st["regularity"], reach=st["reach"],
@@ -248,11 +249,11 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
     if _below_noise(st):
         ui.warn(f"the tolerance {st['tolerance']:.3g} is below {NOISE_SIGMAS} times the scan's noise estimate "
                 f"{st['noise']:.3g}: it can only be met by following the noise")
-    if st["tolerance"] is not None and st["outline_gap"] > st["tolerance"] and not args.outline_tolerance:
+    if st["tolerance"] is not None and st["outline_gap"] > st["tolerance"] and args.outline_tolerance is False:
         ui.warn(f"the surface's boundary stands up to {st['outline_gap']:.3g} ({st['outline_gap'] / st['tolerance']:.2g} "
                 f"times the tolerance) from the scan's outline, with no scan data under it: a chord across a notch, "
-                f"a hole's bay or a ragged run of the outline (the tolerance holds for the scan's vertices); "
-                f"--outline-tolerance refines there too")
+                f"a hole's bay or a ragged run of the outline (--no-outline-tolerance: the tolerance holds for the "
+                f"scan's vertices only)")
     from trispline.param.tables import SMALL_HOLE
 
     from ..approx.pipeline import PINCHED, WILD_REACH
@@ -272,7 +273,7 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
     if st["tolerance"] is not None and not st["met"]:
         what = (f"the tolerance {st['tolerance']:.3g} was not met within {st['budget']} vertices: the inliers' "
                 f"max deviation is {st['deviation']['max']:.3g}"
-                + (f", the outline's largest gap {st['outline_gap']:.3g}" if args.outline_tolerance else "")
+                + (f", the outline's largest gap {st['outline_gap']:.3g}" if args.outline_tolerance is not False else "")
                 + f" ({st['stop']})")
         advice = _advice(st, result.history, st["hull_slivers"])
         if args.strict:

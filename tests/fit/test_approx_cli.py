@@ -180,9 +180,9 @@ def test_no_noise_warning_on_a_clean_scan(tmp_path, capsys):
     assert d["noise_correlation"] > 0.1 and "noise estimate" not in err
 
 
-def test_the_outline_gap_is_warned_about_and_held_on_request(tmp_path, capsys):
-    """A disc with 40 notches: the surface's boundary spans them (reported, a warning); --outline-tolerance
-    refines until it holds there too (no warning, the JSON's outline_gap within the tolerance)."""
+def test_the_outline_gap_is_held_by_default_and_warned_about_without(tmp_path, capsys):
+    """A disc with 40 notches: by default the tolerance holds along the outline too (no warning, the JSON's
+    outline_gap within it); with --no-outline-tolerance the surface's boundary spans them (reported, a warning)."""
     import triangle as tr
 
     th = np.linspace(0, 2 * np.pi, 160, endpoint=False)
@@ -192,7 +192,7 @@ def test_the_outline_gap_is_warned_about_and_held_on_request(tmp_path, capsys):
     mesh = tmp_path / "gear.ply"
     trimesh.Trimesh(np.column_stack([t["vertices"], 0.2 * t["vertices"].prod(1)]), t["triangles"],
                     process=False).export(mesh)
-    for extra, warned in (((), True), (("--outline-tolerance",), False)):
+    for extra, warned in (((), False), (("--outline-tolerance",), False), (("--no-outline-tolerance",), True)):
         rc, stdout, err = run(capsys, "fit", mesh, "-o", tmp_path / "s.npz", "--tolerance-rel", "1e-3", "--json",
                               *extra)
         d = json.loads(stdout)
@@ -217,15 +217,16 @@ def test_a_tolerance_missed_at_sharp_creases_names_them(tmp_path, capsys):
 
 
 def test_a_nearly_singular_surface_is_weighed_away_or_named_with_the_way_out(tmp_path, capsys):
-    """The built-in noisy scan at 1% of its diagonal: the data weight cross-validated on the first domain (1e6)
-    leaves an ear on the hole's outline nearly singular (measured: smallest area element 0.033 of its largest,
-    |H| 6.5e3 there). The weight is then chosen again among those whose fit is regular (measured: 3e4, 0.137,
-    |H| 175); a weight the user fixes is kept, and the command says so and names it."""
+    """The built-in noisy scan at 1% of its diagonal, its outline's gap only reported: the data weight
+    cross-validated on the first domain (1e6) leaves an ear on the hole's outline nearly singular (measured:
+    smallest area element 0.033 of its largest, |H| 6.5e3 there). The weight is then chosen again among those
+    whose fit is regular (measured: 3e4, 0.137, |H| 175); a weight the user fixes is kept, and the command says
+    so and names it. (With the outline held to the tolerance, the default, the ear is refined away.)"""
     from trispline.fit.approx.pipeline import PINCHED
 
     for extra, warned in (((), False), (("--data", "1e6"), True)):
         rc, stdout, err = run(capsys, "fit", "--example", "--example-faces", "4000", "-o", tmp_path / "s.npz",
-                              "--tolerance-rel", "1e-2", "--json", *extra)
+                              "--tolerance-rel", "1e-2", "--no-outline-tolerance", "--json", *extra)
         d = json.loads(stdout)
         assert rc == 0 and d["met"]
         assert ("nearly singular" in err) is warned and (d["regularity"] < PINCHED) is warned

@@ -29,7 +29,7 @@ from trispline.fit.approx.fit import (  # noqa: E402
 from trispline.fit.approx.analysis import SPIKE_LEVELS  # noqa: E402
 from trispline.fit.approx.pipeline import loss_scale  # noqa: E402
 from trispline.fit.approx.deviation import surface_deviation  # noqa: E402
-from trispline.fit.approx.refine import OUTLINE_REJECT_ROUGHNESS, measure, outline_gaps  # noqa: E402
+from trispline.fit.approx.refine import OUTLINE_REJECT_ROUGHNESS, measure, outline_gaps, outline_humps  # noqa: E402
 from trispline.fit.datasets.truth import grid_with_hole, truth_scan  # noqa: E402
 from trispline.fit.energy import robust  # noqa: E402
 from trispline.fit.energy.data import DataPoints  # noqa: E402
@@ -690,6 +690,19 @@ def test_a_budget_alones_final_fit_does_not_replace_a_far_better_round():
     assert res.stats["deviation"]["max"] <= 1.1 * min(r["max"] for r in res.history)
 
 
+def test_outline_humps_are_the_deepest_vertex_of_every_run_over_the_tolerance():
+    """One vertex per notch: the largest gap of each run of consecutive loop vertices over the tolerance, runs
+    wrapping around the loop's start included; a loop over it all round gives its largest."""
+    loop = np.array([5, 3, 8, 0, 9, 1, 7, 2, 6, 4])  # scan ids in loop order
+    gap = np.zeros(10)
+    gap[loop] = [0.3, 0.0, 0.5, 0.7, 0.6, 0.0, 0.0, 0.2, 0.0, 0.4]  # runs: [8 0 9], [2], [4 5] (wrapping)
+    over = gap > 0.1
+    np.testing.assert_array_equal(outline_humps([loop], gap, over), np.sort([0, 2, 4]))
+    np.testing.assert_array_equal(outline_humps([loop, np.array([10, 11, 12])], np.r_[gap, 1, 3, 2],
+                                                np.r_[over, True, True, True]), np.sort([0, 2, 4, 11]))
+    assert outline_humps([loop], gap, np.zeros(10, bool)).size == 0
+
+
 def test_the_outline_gap_is_measured_and_reported():
     """A disc with 40 square notches: chords spanning notches leave surface with no scan under it, which
     the scan-to-surface deviation cannot see; the result reports how far (stats["outline_gap"]), and that
@@ -705,7 +718,7 @@ def test_the_outline_gap_is_measured_and_reported():
                        "pq30a0.001Q")
     uv, F = t["vertices"], t["triangles"]
     V = np.column_stack([uv, 0.2 * uv[:, 0] * uv[:, 1]])
-    res = approximate_surface(V, F, tolerance_rel=1e-3)
+    res = approximate_surface(V, F, tolerance_rel=1e-3, outline_tolerance=False)
     tol, gap = res.stats["tolerance"], res.stats["outline_gap"]
     assert res.stats["met"] and res.stats["deviation"]["max"] <= tol
     d = distance_to_mesh(res.surface.tessellate(8).vertices, V, F)  # surface -> scan
@@ -713,7 +726,7 @@ def test_the_outline_gap_is_measured_and_reported():
     assert gap <= 0.11  # at most a notch's depth (0.1) and a little
     assert dict(zip(res.surface.extras["approx_deviation_names"], res.surface.extras["approx_deviation"]))[
         "outline_gap"] == gap
-    held = approximate_surface(V, F, tolerance_rel=1e-3, outline_tolerance=True)  # refined until it holds too
+    held = approximate_surface(V, F, tolerance_rel=1e-3)  # by default refined until it holds there too
     assert held.stats["met"] and held.stats["outline_gap"] <= tol and held.stats["deviation"]["max"] <= tol
     d = distance_to_mesh(held.surface.tessellate(8).vertices, V, F)
     assert np.mean(d > tol) < 0.01 and d.max() < 3 * tol  # was 29% of the surface beyond it, up to 19x
