@@ -74,7 +74,7 @@ def weights_picture(out: Path) -> None:
 
 def approx_picture(out: Path) -> None:
     V, F = synthetic_scan(4000, seed=0)
-    # data weight 1e4: smoother than the cross-validated one (3e4 on this scan: max |H| 175 against 12.5, on an
+    # data weight 1e4: smoother than the cross-validated one (3e4 on this scan: max |H| 74 against 11, on an
     # edge of the patch on the hole's outline)
     smooth = dataclasses.replace(APPROX_WEIGHTS, data=1e4)
     fits = {"interpolated": fit_surface(V, F).surface,
