@@ -795,7 +795,8 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
                  small_holes=len(small_holes(V, parameterization.faces, SMALL_HOLE)),
                  regularity=float(state.regularity.min(initial=1.0)), reach=surface_reach(ctrl, V, WILD_REACH))
     settings = dict(loss=opt.loss, corners=opt.corners, tolerance=opt.tolerance, budget=opt.budget, scale=nominal,
-                    data_weight=float(weights.data), fill_holes=opt.fill_holes)
+                    data_weight=float(weights.data), fill_holes=opt.fill_holes,
+                    outline_tolerance=opt.refine and opt.outline_tolerance)
     extras = surface_extras(dom, fit, V, stats, settings, weights)
     if fit.space.stats["snapped_vertices"]:  # uv moved onto exact crossings (spline.propagation.snap): by how much
         extras.update(domain_max_move=fit.space.stats["max_move"],
@@ -823,7 +824,9 @@ def surface_extras(dom: CoarseDomain, fit, V: np.ndarray, stats: dict, settings:
     (names in ``approx_deviation_names``): the inliers' deviation statistics, then ``rejected``,
     ``all_rms``, ``all_max``, ``outline_gap``; ``approx_loss``, ``approx_corners``, ``approx_tolerance`` (NaN:
     none), ``approx_budget``, ``approx_scale`` (NaN: plain loss), ``approx_noise``, ``approx_met``,
-    ``approx_stop``, ``approx_fill_holes`` and ``approx_holes_filled`` (the setting, and the holes it spanned); ``free``, ``fit_weights`` as for an interpolating fit, and ``data_vertices``
+    ``approx_stop``, ``approx_fill_holes`` and ``approx_holes_filled`` (the setting, and the holes it spanned),
+    ``approx_outline_tolerance`` (whether the tolerance held for the outline's gap too); ``free``, ``fit_weights``
+    as for an interpolating fit, and ``data_vertices``
     (the corners' scan vertices) when the corners interpolate them.
     """
     from dataclasses import asdict
@@ -840,7 +843,8 @@ def surface_extras(dom: CoarseDomain, fit, V: np.ndarray, stats: dict, settings:
         approx_budget=np.array(int(settings["budget"])), approx_scale=np.array(nan(settings["scale"])),
         approx_noise=np.array(float(stats["noise"])), approx_met=np.array(bool(stats["met"])),
         approx_stop=np.array(stats["stop"]), approx_fill_holes=np.array(int(settings.get("fill_holes", 0))),
-        approx_holes_filled=np.array(int(stats.get("holes_filled", 0))), free=fit.free,
+        approx_holes_filled=np.array(int(stats.get("holes_filled", 0))),
+        approx_outline_tolerance=np.array(bool(settings.get("outline_tolerance", False))), free=fit.free,
         fit_weights=np.array(list(asdict(weights).values()), float))
     if settings["corners"] == "data":
         extras["data_vertices"] = V[dom.vertices]

@@ -171,7 +171,7 @@ def _stored_approximation(ex: dict) -> dict[str, Any]:
     """An approximation's stored deviation statistics and settings (``approx_*`` keys)."""
     out: dict[str, Any] = dict(deviation=stored_deviation(ex))
     for key in ("approx_loss", "approx_corners", "approx_tolerance", "approx_budget", "approx_met", "approx_stop",
-                "approx_noise", "approx_holes_filled"):
+                "approx_noise", "approx_holes_filled", "approx_outline_tolerance"):
         if key in ex:
             v = np.asarray(ex[key]).item()
             out[key[7:]] = None if isinstance(v, float) and not np.isfinite(v) else v
@@ -203,6 +203,9 @@ def _check_text(d: dict) -> str:
         lines.append(f"  stored deviation of the scan (inliers): max {fmt(dev.get('max'))}, RMS {fmt(dev.get('rms'))} "
                      f"({tol}; {int(dev.get('rejected', 0))} rejected; loss {a.get('loss')}, corners {a.get('corners')}"
                      + (f"; {a['holes_filled']} small holes of the scan spanned" if a.get("holes_filled") else "") + ")")
+        if dev.get("outline_gap") is not None:
+            lines.append(f"  the outline's largest gap to the scan {fmt(dev['outline_gap'])}"
+                         + (" (held to the tolerance)" if a.get("outline_tolerance") else ""))
     fl = d["precision_floor"]
     if any(fl.values()):
         lines.append(f"  far from the origin (centre {np.round(d['centre'], 3).tolist()}): the stored coordinates' "

@@ -49,8 +49,12 @@ def test_fit_tolerance_round_trip_check_and_render(scan, tmp_path, capsys):
     rep = json.loads(stdout)
     assert rep["ok"] and rep["approximation"]["met"] is True
     assert rep["approximation"]["deviation"]["max"] == pytest.approx(d["deviation"]["max"])
+    assert rep["approximation"]["outline_tolerance"] is True  # the default, stored with the surface
+    assert rep["approximation"]["deviation"]["outline_gap"] == pytest.approx(d["outline_gap"])
+    assert d["outline_gap"] <= d["tolerance"]
     rc, stdout, _ = run(capsys, "check", out)
     assert "stored deviation of the scan (inliers): max" in stdout
+    assert "the outline's largest gap to the scan" in stdout and "(held to the tolerance)" in stdout
     png = tmp_path / "dev.png"
     rc, stdout, err = run(capsys, "render", out, "-o", png, "--mode", "deviation", "--mesh", scan,
                           "--backend", "matplotlib", "--size", "200x150", "--json")
