@@ -233,6 +233,23 @@ def _text(d: dict) -> str:
     ])
 
 
+def _pinch_cure(st: dict) -> str:
+    """What to try for a nearly singular patch: a lower data weight, unless the approximation already chose the
+    weight again among those whose fit is regular (a tolerance and a cross-validated weight) and found none close
+    to the best held-out score: then the map or the scan's own shape there (face_gpjs at 1e-3: 3e-4 at the
+    cross-validated 3e5, 1e-3 at 3e4 and at 3e3, 1e-3 with --param slim or harmonic or --corners fit)."""
+    from ..approx.fit import REGULAR_SLACK
+    from ..approx.pipeline import REWEIGH_PINCHED
+
+    if not st["cross_validated"]:
+        return "a lower --data weight smooths it"
+    if st["tolerance"] is None or not REWEIGH_PINCHED:
+        return f"a lower --data weight than the cross-validated {st['data_weight']:g} smooths it"
+    return (f"no data weight whose held-out error is within {REGULAR_SLACK:.0%} of the best gives a regular surface "
+            f"(a lower --data weight than the cross-validated {st['data_weight']:g} may, at some accuracy; or the "
+            f"scan's shape or its map is that sharp there: `trispline render --mode curvature` shows where)")
+
+
 def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, write: Callable, extras: Callable,
         fields: tuple[tuple[str, type], ...]) -> int:
     """Body of ``fit`` when approximating: ``load``, ``write`` and ``extras`` are ``fit``'s own steps
@@ -264,9 +281,8 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
         ui.warn(f"the surface strays {st['reach']:.2g} bounding-box diagonals outside the scan's box, between its "
                 f"vertices (a patch folds or overshoots there): {cure}")
     if st["regularity"] < PINCHED:
-        chosen = f" than the cross-validated {st['data_weight']:g}" if st["cross_validated"] else ""
         ui.warn(f"the surface is nearly singular in a patch (its smallest area element is {st['regularity']:.2g} of "
-                f"its largest: the curvature spikes there); a lower --data weight{chosen} smooths it")
+                f"its largest: the curvature spikes there); {_pinch_cure(st)}")
     if st["small_holes"] >= SMALL_HOLES_ADVICE and not args.fill_holes:
         ui.warn(f"the scan has {st['small_holes']} holes with at most {SMALL_HOLE} vertices around (dropouts?): the "
                 f"surface keeps each, with three coarse vertices or more; --fill-holes {SMALL_HOLE} spans them")

@@ -204,6 +204,20 @@ def test_the_outline_gap_is_held_by_default_and_warned_about_without(tmp_path, c
         assert (d["outline_gap"] > d["tolerance"]) is warned
 
 
+def test_the_cure_named_for_a_nearly_singular_patch_is_one_not_yet_tried():
+    """A weight the user fixed, or one cross-validated without a tolerance: a lower --data weight; with a
+    tolerance the approximation already chose the weight again among regular fits, so the message says none
+    was close and names the other causes instead of promising the cure."""
+    from trispline.fit.cli.approximate import _pinch_cure
+
+    assert _pinch_cure(dict(cross_validated=False, tolerance=1e-3, data_weight=1e6)) == "a lower --data weight smooths it"
+    assert "than the cross-validated 30000 smooths it" in _pinch_cure(dict(cross_validated=True, tolerance=None,
+                                                                             data_weight=3e4))
+    tried = _pinch_cure(dict(cross_validated=True, tolerance=1e-3, data_weight=3e5))
+    assert tried.startswith("no data weight whose held-out error is within 10% of the best gives a regular surface")
+    assert "may, at some accuracy" in tried and "--mode curvature" in tried
+
+
 def test_a_tolerance_missed_at_sharp_creases_names_them(tmp_path, capsys):
     """Three faces of a cube: a C1 surface rounds its 90-degree creases over a scan spacing or more, beyond 1e-3
     of the diagonal at this spacing; the misses are counted at the creases and the warning names them."""
