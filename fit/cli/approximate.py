@@ -193,7 +193,7 @@ def _summary(args: argparse.Namespace, result: Any, mesh: Any, seconds: float) -
         param_used=result.parameterization.repaired or result.parameterization.method,
         corners=result.settings["corners"], loss=result.settings["loss"], tolerance=st["tolerance"],
         budget=st["budget"], met=st["met"], stop=st["stop"], deviation=st["deviation"],
-        deviation_all=st["deviation_all"], outline_gap=st["outline_gap"], outline_tolerance=args.outline_tolerance is not False,
+        deviation_all=st["deviation_all"], outline_gap=st["outline_gap"], outline_tolerance=result.settings["outline_tolerance"],
         rejected=st["rejected"], noise=st["noise"], hull_slivers=st["hull_slivers"],
         over_tolerance=st["over_tolerance"], over_near_creases=st["over_near_creases"],
         holes_filled=st["holes_filled"], small_holes=st["small_holes"], regularity=st["regularity"], reach=st["reach"],
@@ -266,7 +266,8 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
     if _below_noise(st):
         ui.warn(f"the tolerance {st['tolerance']:.3g} is below {NOISE_SIGMAS} times the scan's noise estimate "
                 f"{st['noise']:.3g}: it can only be met by following the noise")
-    if st["tolerance"] is not None and st["outline_gap"] > st["tolerance"] and args.outline_tolerance is False:
+    held = result.settings["outline_tolerance"]  # with a tolerance, unless --no-outline-tolerance
+    if st["tolerance"] is not None and st["outline_gap"] > st["tolerance"] and not held:
         ui.warn(f"the surface's boundary stands up to {st['outline_gap']:.3g} ({st['outline_gap'] / st['tolerance']:.2g} "
                 f"times the tolerance) from the scan's outline, with no scan data under it: a chord across a notch, "
                 f"a hole's bay or a ragged run of the outline (--no-outline-tolerance: the tolerance holds for the "
@@ -289,7 +290,7 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
     if st["tolerance"] is not None and not st["met"]:
         what = (f"the tolerance {st['tolerance']:.3g} was not met within {st['budget']} vertices: the inliers' "
                 f"max deviation is {st['deviation']['max']:.3g}"
-                + (f", the outline's largest gap {st['outline_gap']:.3g}" if args.outline_tolerance is not False else "")
+                + (f", the outline's largest gap {st['outline_gap']:.3g}" if held else "")
                 + f" ({st['stop']})")
         advice = _advice(st, result.history, st["hull_slivers"])
         if args.strict:
