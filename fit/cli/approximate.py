@@ -119,7 +119,8 @@ def requested(args: argparse.Namespace) -> bool:
     """True when ``fit`` should approximate (a tolerance or a vertex budget was given)."""
     on = any(getattr(args, k, None) is not None for k in ("tolerance", "tolerance_rel", "vertices"))
     if not on:
-        given = [f"--{k.replace('_', '-')}" for k in _MODE_OPTIONS if getattr(args, k, None) is not None]
+        given = [f"--{'no-' * (getattr(args, k) is False)}{k.replace('_', '-')}" for k in _MODE_OPTIONS
+                 if getattr(args, k, None) is not None]  # as typed: --no-outline-tolerance too
         if given:
             verb = "needs" if len(given) == 1 else "need"
             raise UsageError(f"{', '.join(given)} {verb} --tolerance, --tolerance-rel or --vertices (approximation)")

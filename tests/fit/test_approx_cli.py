@@ -110,6 +110,7 @@ def test_vertices_alone_fits_at_most_that_many(scan, tmp_path, capsys):
     (("--vertices", "4"), "a budget of 4 vertices is below what the boundary needs"),
     (("--corners", "fit"), "--corners needs --tolerance, --tolerance-rel or --vertices"),
     (("--strict",), "--strict needs --tolerance"),
+    (("--no-outline-tolerance",), "--no-outline-tolerance needs --tolerance"),
     (("--loss", "tukey", "--vertices", "50"), "invalid choice: 'tukey'"),
 ])
 def test_bad_input_is_one_line_exit_2_and_no_file(scan, tmp_path, capsys, args, match):
