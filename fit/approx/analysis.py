@@ -38,7 +38,7 @@ from trispline.spline.topology import outline_vertex_mask, signed_areas, undirec
 
 from .creases import clean_crease_edges
 
-__all__ = ["ScanAnalysis", "analyse_scan", "edge_correlation", "POINTS_PER_CELL", "CURVATURE_POINTS", "SPIKE_LEVELS"]
+__all__ = ["ScanAnalysis", "analyse_scan", "edge_correlation", "vertex_area_element", "POINTS_PER_CELL", "CURVATURE_POINTS", "SPIKE_LEVELS"]
 
 #: Vertices per cell aimed at (6 unknowns per coordinate: the fit averages over about 7x more points).
 POINTS_PER_CELL = 40
@@ -111,6 +111,9 @@ class ScanAnalysis:
     area : (ny, nx) 3D area of the scan's faces whose centroid is in the cell
     diagonal : the scan's bounding-box diagonal
     points : (n, 3) the scan's vertices as given
+    area_element : (n,) the scan's own area element at each vertex, ``|x_u x x_v|`` of its map: the 3D area of
+        its faces over their uv area (1 where it has none); what the surface's is measured against
+        (:func:`~.pinch.relative_regularity`)
     coarse_noise : the same estimate as ``noise`` from the curvature grid's quadrics: about ``noise`` where
         the residuals are noise, larger where they are the quadrics' model error (creases, clean curved data)
     noise_correlation : the correlation of neighbouring vertices' (signed, leave-one-out) residuals over
@@ -145,6 +148,7 @@ class ScanAnalysis:
         default_factory=lambda: (np.empty(0, np.int64), np.empty(0, np.int64)))
     spike_outline: np.ndarray = field(default_factory=lambda: np.empty(0, np.int64))
     crease_edges: np.ndarray = field(default_factory=lambda: np.empty((0, 2), np.int64))
+    area_element: np.ndarray | None = None
 
     @property
     def crease(self) -> np.ndarray:
@@ -491,7 +495,16 @@ def analyse_scan(V: np.ndarray, F: np.ndarray, uv: np.ndarray, *, curvature_poin
                         area=s3.reshape(coarse.shape), diagonal=diagonal, points=V,
                         coarse_noise=coarse_noise,
                         noise_correlation=edge_correlation(np.clip(loo, -3 * noise, 3 * noise), F),
-                        crease_edges=clean_crease_edges(V, F, noise_share(noise, coarse_noise)))
+                        crease_edges=clean_crease_edges(V, F, noise_share(noise, coarse_noise)),
+                        area_element=vertex_area_element(F, a3, auv, n))
+
+
+def vertex_area_element(F: np.ndarray, area_3d: np.ndarray, area_uv: np.ndarray, n: int) -> np.ndarray:
+    """``(n,)`` each vertex's 3D area of its faces ``F (m, 3)`` over their uv area (``area_3d``, ``area_uv (m,)``):
+    the map's area element there (1 where the faces have no uv area)."""
+    s3 = np.bincount(F.ravel(), np.repeat(area_3d, 3), minlength=n)
+    s2 = np.bincount(F.ravel(), np.repeat(area_uv, 3), minlength=n)
+    return np.where(s2 > 0, s3 / np.where(s2 > 0, s2, 1.0), 1.0)
 
 
 def noise_share(noise: float, coarse_noise: float) -> float:

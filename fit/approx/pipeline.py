@@ -54,6 +54,7 @@ from .fit import (APPROX_WEIGHTS, PINCHED, WILD_REACH, corrected_location, cross
 from .creases import near_creases
 from .holes import SMALL_HOLE, folded_holes, small_holes, span_holes
 from .problem import CORNER_MODES
+from .pinch import relative_regularity
 from .refine import Round, measure, outline_gaps, pick_vertices
 
 __all__ = ["ApproxResult", "approximate_surface", "APPROX_STAGES", "LOSS_NAMES", "DEFAULT_BUDGET_FRACTION",
@@ -163,8 +164,10 @@ class ApproxResult:
         along the hull's long edges and ``repair_mesh`` peels them); where a tolerance was missed,
         over_tolerance (the inliers over it) and over_near_creases (those of them on or beside a sharp
         crease of the scan, :func:`~.creases.near_creases`, which a C1 surface rounds; else both 0);
-        regularity, the smallest patch's :func:`~trispline.spline.patches.regularity` (below
-        :data:`PINCHED` the surface is nearly singular somewhere: its curvature spikes there)
+        regularity, the smallest patch's :func:`~.pinch.relative_regularity`: its area element against the scan's
+        own under it (below :data:`PINCHED` the surface is nearly singular somewhere: its curvature
+        spikes there, where the scan's does not), regularity_plain the smallest
+        :func:`~trispline.spline.patches.regularity` (what refinement reweighs by: the map's own spread counts)
     energies : dict term -> energy (``bend``, ``data``; data units); iterations : Gauss--Newton steps
     converged : bool; history : one record per round (vertices, max, rms, rejected, seconds)
     timings : dict stage -> seconds; parameterization : the Parameterization (``method="uv"`` with ``uv``)
@@ -793,7 +796,9 @@ def _result(V: np.ndarray, state: Round, opt: _Options, weights: FitWeights, sca
                  hull_slivers=int(hull_sliver_faces(V, parameterization.faces).sum()),
                  holes_filled=opt.filled,
                  small_holes=len(small_holes(V, parameterization.faces, SMALL_HOLE)),
-                 regularity=float(state.regularity.min(initial=1.0)), reach=surface_reach(ctrl, V, WILD_REACH))
+                 regularity=float(relative_regularity(fit.surface, dom.scan_uv, dom.analysis.area_element)
+                                  .min(initial=1.0)),
+                 regularity_plain=float(state.regularity.min(initial=1.0)), reach=surface_reach(ctrl, V, WILD_REACH))
     settings = dict(loss=opt.loss, corners=opt.corners, tolerance=opt.tolerance, budget=opt.budget, scale=nominal,
                     data_weight=float(weights.data), fill_holes=opt.fill_holes,
                     outline_tolerance=opt.refine and opt.outline_tolerance)
