@@ -130,6 +130,8 @@ def _arc_filter(values: np.ndarray, arc: np.ndarray, span: float, radius: float,
     """``(L,)`` the largest (``reduce=np.maximum``) or least (``np.minimum``) of ``values (L,)`` within
     ``radius`` along a loop of length ``span`` (``arc (L,)``: the vertices' arc lengths; segments of any
     lengths, so a filter over a count of loop vertices would not do): a filter on a uniform resampling."""
+    if not 2.0 * radius < span:  # the window holds the whole loop (a loop of (nearly) no length too)
+        return np.full(values.size, reduce.reduce(values))
     m = 4 * values.size
     at = np.minimum((arc / max(span, 1e-300) * m).astype(np.int64), m - 1)  # each vertex's cell
     cells = np.full(m, -np.inf if reduce is np.maximum else np.inf)

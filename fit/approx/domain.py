@@ -83,7 +83,7 @@ from .cdt import constrained, hole_seeds, loop_segments, quality_mesh
 from .locate import ClampedLocator, Located
 from .quality import REPAIR_ROUNDS, better_vertices, face_angles
 
-__all__ = ["BoundaryBudgetError", "CoarseDomain", "LostHolesError", "DomainStats", "coarse_domain", "coarse_index", "insert", "separation", "ADAPT",
+__all__ = ["BoundaryBudgetError", "CoarseDomain", "LostHolesError", "TangledOutlineError", "DomainStats", "coarse_domain", "coarse_index", "insert", "separation", "ADAPT",
            "DEFAULT_FRACTION",
            "MIN_SEPARATION"]
 
@@ -316,6 +316,12 @@ class LostHolesError(InputError):
         self.lost = lost
 
 
+class TangledOutlineError(InputError):
+    """The boundary chords of the coarse domain kept crossing the scan's own outline: its map's outline touches
+    or crosses itself where no vertex can be added between (two of its edges, e.g. beside a vertex that a repair
+    split in two, meet in uv). A map with a convex outline (the harmonic one) has no such place."""
+
+
 class _ScanIndex:
     """A KD-tree over the scan's uv, for snapping Triangle's points to scan vertices."""
 
@@ -474,8 +480,8 @@ def _triangulate(uv: np.ndarray, boundary: list[np.ndarray], interior: np.ndarra
         creases = np.delete(creases, crossed[crossed >= outline.shape[0]] - outline.shape[0], axis=0)
         boundary = _split_runs(boundary, loops, position, crossed[crossed < outline.shape[0]])
     else:
-        raise InputError("the coarse domain's boundary chords still cross after "
-                         f"{CROSSING_ROUNDS} rounds of splitting; the uv map's outline may touch itself")
+        raise TangledOutlineError("the coarse domain's boundary chords still cross after "
+                                  f"{CROSSING_ROUNDS} rounds of splitting; the uv map's outline may touch itself")
     used = np.zeros(ids.size, bool)
     used[faces.ravel()] = True
     remap = np.cumsum(used) - 1

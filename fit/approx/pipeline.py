@@ -48,7 +48,8 @@ from ..solve import require_x64
 from ..weights import FitWeights
 from .analysis import SPIKE_LEVELS
 from .deviation import Deviation, summary
-from .domain import DEFAULT_FRACTION, BoundaryBudgetError, CoarseDomain, LostHolesError, coarse_domain, insert
+from .domain import (DEFAULT_FRACTION, BoundaryBudgetError, CoarseDomain, LostHolesError, TangledOutlineError,
+                     coarse_domain, insert)
 from .fit import (APPROX_WEIGHTS, PINCHED, WILD_REACH, corrected_location, cross_validated_weight, fit_domain,
                   quadric_reference, scan_location)
 from .creases import near_creases
@@ -506,6 +507,14 @@ def approximate_surface(
         if parameterization.method == "uv":
             raise
         uv, faces, parameterization = _domain_uv(V, F, None, param, span=exc.lost, fill=fill)
+        dom, opt = _budgeted_domain(V, faces, uv, opt, max_rounds)
+    except TangledOutlineError as exc:  # the map's outline meets itself: the harmonic map's is convex
+        if parameterization.method == "uv" or param == "harmonic":
+            raise
+        method = parameterization.method
+        uv, faces, parameterization = _domain_uv(V, F, None, "harmonic", fill=fill)
+        parameterization.messages.insert(0, f"the {method} map's outline meets itself where the coarse domain needs "
+                                            f"it apart ({exc}); the harmonic map (its outline on a circle) is used")
         dom, opt = _budgeted_domain(V, faces, uv, opt, max_rounds)
     opt = dataclasses.replace(opt, reference=quadric_reference(dom, V))
     stage("domain")
