@@ -212,6 +212,13 @@ RBF_LOO_POINTS = 7
 #: 7.6 MB) stay in cache, which made building them 3x faster than in chunks of 4096.
 RBF_CHUNK = 512
 _NPOLY = 10  # cubic polynomial columns, constant included
+#: A kernel is not tried at a vertex whose points leave its polynomial part undetermined: the scaled Gram matrix
+#: of its monomials has an eigenvalue below this (relative to its diagonal of ones). Points on three lines (a strip
+#: three vertices wide: a cubic vanishes on them) read 1e-14 and below, and the interpolant took any multiple of
+#: that cubic (gradients 3e4 times the data's, a surface 6.7 diagonals out); the analytic surfaces and the shared
+#: scans read at least 1.3e-7 for the cubic and 2.6e-11 for the sextic of the outline fits (benchmarks/README.md,
+#: issue 17, the twenty-seventh session).
+UNISOLVENT_RTOL = 1e-12
 #: Damping of the linear trend's 2 x 2 normal matrix, relative to its trace: keeps a
 #: neighbourhood on one line solvable without touching any other (a regularisation, not a test).
 TREND_RIDGE = 1e-12
@@ -420,6 +427,29 @@ def _kernel_matrix(r3: np.ndarray, r2: np.ndarray, P0: np.ndarray, pad: np.ndarr
     return out
 
 
+def _monomial_gram(P: np.ndarray) -> np.ndarray:
+    """``(b, m, m)`` the Gram matrices of the monomial columns ``P (b, K, m)`` (padded rows zero), each column
+    scaled to unit length: their leading ``j x j`` blocks are those of the first ``j`` monomials."""
+    G = np.matmul(P.transpose(0, 2, 1), P)
+    n = np.sqrt(np.einsum("bii->bi", G))
+    n = np.where(n > 0, n, 1.0)
+    return G / n[:, :, None] / n[:, None, :]
+
+
+def _unisolvent(gram: np.ndarray) -> np.ndarray:
+    """``(b,)`` bool: the polynomial part of a kernel's system is determined by the points (the scaled Gram
+    matrices ``gram (b, m, m)`` of its monomials have no eigenvalue below :data:`UNISOLVENT_RTOL`). One batched
+    Cholesky factorisation decides where all are; only a batch where one is not takes the eigenvalues."""
+    if not gram.shape[0]:
+        return np.zeros(0, bool)
+    shifted = gram - UNISOLVENT_RTOL * np.eye(gram.shape[1])
+    try:
+        np.linalg.cholesky(shifted)
+        return np.ones(gram.shape[0], bool)
+    except np.linalg.LinAlgError:
+        return np.linalg.eigvalsh(gram)[:, 0] > UNISOLVENT_RTOL
+
+
 def _fit_chunk(out: _KernelFits, lo: int, hi: int, X: np.ndarray, Y: np.ndarray, valid: np.ndarray,
                npts: np.ndarray, kernels: list[tuple[int, int]], nloo: int) -> None:
     """Interpolate vertices ``lo:hi`` with each kernel; keep the one with the smallest leave-one-out error.
@@ -437,12 +467,14 @@ def _fit_chunk(out: _KernelFits, lo: int, hi: int, X: np.ndarray, Y: np.ndarray,
     r3 *= vc[:, :, None] & vc[:, None, :]  # zero between padded centres (exact: every kernel is r3 times a power)
     npoly = out.coef.shape[1]
     P0 = _monomials(Xc[..., 0], Xc[..., 1], _degree(npoly)) * vc[..., None]
+    gram = _monomial_gram(P0)
     B = np.zeros((hi - lo, K + npoly, d + nloo))
     B[:, :K, :d] = Y[lo:hi]
     B[:, np.arange(nloo), d + np.arange(nloo)] = 1.0
     for p, q in kernels:
         m = (q + 1) * (q + 2) // 2
         ok = npts[lo:hi] >= max(2 * m, 3)
+        ok[ok] = _unisolvent(gram[ok, :m, :m])
         if not ok.any():
             continue
         A = _kernel_matrix(r3, r2, P0, ~vc, p, m)
