@@ -20,13 +20,19 @@ from trispline.param.tables import SMALL_HOLE, boundary_loops
 from trispline.param.tables import small_holes as loop_small_holes
 from trispline.spline.topology import signed_areas, undirected_edges
 
-__all__ = ["SMALL_HOLE", "SPAN_HOLE_AREA", "folded_holes", "small_holes", "span_holes"]
+__all__ = ["SMALL_HOLE", "SPAN_HOLE_AREA", "WIDE_HOLE", "folded_holes", "hole_width", "small_holes", "span_holes",
+           "wide_holes"]
 
 #: A hole whose signed uv area (clockwise: negative) is above ``-SPAN_HOLE_AREA`` times the median uv
 #: face area per vertex of its loop is folded shut: a thousandth of a triangle per vertex (halftunnel's
 #: smaller hole, 16 vertices squeezed by LSCM to 0.12 of a triangle, is a hole to keep; a hole of 4
 #: vertices squeezed to 0.007 of one was lost by the coarse domain, which the pipeline then spans).
 SPAN_HOLE_AREA = 1e-3
+#: A hole at least this many of its loop's edge lengths wide in space (:func:`hole_width`) is an opening of the
+#: scan, not a crack: a map that squeezes it shut has failed (LSCM takes an open tube's second end to a point), and
+#: spanning it would close the opening with surface the scan does not have (the tube's end: a cap standing 0.2
+#: diagonals out). A square hole is half an edge wide, a crack as wide as its gap, a tube's end its radius.
+WIDE_HOLE = 2.0
 
 
 def small_holes(V: np.ndarray, F: np.ndarray, max_vertices: int = SMALL_HOLE) -> list[np.ndarray]:
@@ -47,6 +53,20 @@ def folded_holes(uv: np.ndarray, faces: np.ndarray, loops: list[np.ndarray]) -> 
     the map ``uv (n, 2)``, ``faces (m, 3)`` folds shut (see the module docstring)."""
     unit = float(np.median(np.abs(signed_areas(uv, faces))))
     return [h for h in loops[1:] if polygon_area(uv[h]) > -SPAN_HOLE_AREA * unit * h.size]
+
+
+def hole_width(V: np.ndarray, loop: np.ndarray) -> float:
+    """Twice the loop's vector area over its length, in space (``V (n, 3)``, ``loop (k,)``): a circle's radius,
+    the gap of a crack between two long sides."""
+    P = V[loop] - V[loop].mean(0)
+    Q = np.roll(P, -1, axis=0)
+    length = float(np.linalg.norm(Q - P, axis=1).sum())
+    return float(np.linalg.norm(np.cross(P, Q).sum(0))) / max(length, np.finfo(float).tiny)
+
+
+def wide_holes(V: np.ndarray, holes: list[np.ndarray]) -> list[np.ndarray]:
+    """The holes of ``holes`` at least :data:`WIDE_HOLE` of their mean edge lengths wide (:func:`hole_width`)."""
+    return [h for h in holes if hole_width(V, h) >= WIDE_HOLE * np.linalg.norm(V[np.roll(h, -1)] - V[h], axis=1).mean()]
 
 
 def span_holes(F: np.ndarray, holes: list[np.ndarray]) -> np.ndarray:

@@ -53,7 +53,7 @@ from .domain import (DEFAULT_FRACTION, BoundaryBudgetError, CoarseDomain, LostHo
 from .fit import (APPROX_WEIGHTS, PINCHED, WILD_REACH, corrected_location, cross_validated_weight, fit_domain,
                   quadric_reference, scan_location)
 from .creases import near_creases
-from .holes import SMALL_HOLE, folded_holes, small_holes, span_holes
+from .holes import SMALL_HOLE, folded_holes, small_holes, span_holes, wide_holes
 from .problem import CORNER_MODES
 from .pinch import relative_regularity
 from .refine import Round, measure, outline_gaps, pick_vertices
@@ -333,7 +333,8 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str, span: list[np.ndarr
     same smoothed scan replaces it. The map must be one-to-one (``embedded``: the coarse domain is a
     triangulation of the region it covers); one that covers part of the plane twice is replaced too.
     Holes the map turns inside out (:func:`~.holes.folded_holes`), and the loops ``span`` (holes a coarse
-    domain lost: :class:`~.domain.LostHolesError`), are spanned by faces and the map made again: the
+    domain lost: :class:`~.domain.LostHolesError`), are spanned by faces and the map made again, unless one is wide
+    in space (:func:`~.holes.wide_holes`: an opening, such as a tube's end): then the harmonic map replaces the map: the
     returned ``faces`` hold those faces too. The holes ``fill`` (``fill_holes``: :func:`~.holes.small_holes`)
     are spanned before the map.
     """
@@ -350,6 +351,14 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str, span: list[np.ndarr
     X = _smoothed(V, F)
     p = _free_map(X, F, param, V)
     shut = folded_holes(p.uv, p.faces, Triangulation(p.uv, p.faces).boundary_loops) + list(span)
+    wide = wide_holes(V, shut)
+    if wide and p.method != "harmonic":  # an opening the map squeezed shut, not a crack: the harmonic map keeps it
+        method = p.method
+        p = _free_map(X, F, "harmonic", V)
+        p.messages.insert(0, f"the {method} map squeezed shut {len(wide)} holes of the scan that are wide in space "
+                             f"(first: {wide[0].size} vertices around): the harmonic map is used, which keeps them")
+        shut = (folded_holes(p.uv, p.faces, Triangulation(p.uv, p.faces).boundary_loops)
+                + [h for h in span if not wide_holes(V, [h])])
     if shut:  # spanned, and the map made again over them
         messages, method = p.messages, p.method
         p = _free_map(X, span_holes(p.faces, shut), param, V)

@@ -1,10 +1,11 @@
-"""A scan whose map's outline meets itself: the approximation takes the harmonic map instead of failing.
+"""Maps the coarse domain cannot use: the approximation takes the harmonic map instead of failing.
 
 Where a repair split a bowtie vertex in two, the map's outline can touch or cross itself between two
 of its edges; no coarse vertex can be put between them, so the coarse domain's boundary chords keep
 crossing (:class:`~trispline.fit.approx.domain.TangledOutlineError`). The harmonic map's outline is a
 circle: the approximation makes its domain over that one (the shared pelvis scan, repaired, is such a
-case), unless the caller named the map.
+case), unless the caller named the map. And LSCM takes an open tube's second end to a point: a hole
+squeezed shut, which is spanned only where it is a crack, not an opening wide in space.
 """
 from __future__ import annotations
 
@@ -18,9 +19,11 @@ import trispline.fit.approx.pipeline as pipeline  # noqa: E402
 from trispline.fit.approx import approximate_surface  # noqa: E402
 from trispline.fit.approx.boundary import _arc_filter  # noqa: E402
 from trispline.fit.approx.domain import TangledOutlineError  # noqa: E402
+from trispline.fit.approx.holes import WIDE_HOLE, hole_width, wide_holes  # noqa: E402
 from trispline.fit.datasets.cache import MISSING_DATA, find_data  # noqa: E402
 from trispline.fit.datasets.truth import grid_with_hole  # noqa: E402
 from trispline.fit.io import read_mesh  # noqa: E402
+from trispline.fit.reach import surface_reach  # noqa: E402
 from trispline.param import repair_mesh  # noqa: E402
 
 PELVIS = "pelvis-registration-partial.obj"
@@ -86,3 +89,51 @@ def test_the_repaired_pelvis_is_approximated_over_the_harmonic_map():
     res = approximate_surface(r.V, r.F, n_vertices=700)
     assert any("outline meets itself" in s for s in res.parameterization.messages)
     assert res.stats["vertices"] <= 700 and res.c1_residual < 1e-12
+
+
+def _tube(around: int = 60, along: int = 20) -> tuple[np.ndarray, np.ndarray]:
+    """An open cylinder of radius 1 and height 1: two boundary loops of ``around`` vertices."""
+    a, h = np.meshgrid(np.arange(around) * 2 * np.pi / around, np.linspace(0.0, 1.0, along))
+    V = np.column_stack([np.cos(a.ravel()), np.sin(a.ravel()), h.ravel()])
+    i, j = np.meshgrid(np.arange(along - 1), np.arange(around), indexing="ij")
+    p, q = i * around + j, i * around + (j + 1) % around
+    F = np.concatenate([np.column_stack([p.ravel(), q.ravel(), (q + around).ravel()]),
+                        np.column_stack([p.ravel(), (q + around).ravel(), (p + around).ravel()])])
+    return V, F
+
+
+@pytest.mark.parametrize("along, height", [(20, 1.0), (30, 0.5)])  # LSCM overlaps the first, squeezes the second
+def test_an_open_tube_keeps_both_ends_open(along, height):
+    V, F = _tube(along=along)
+    V[:, 2] *= height
+    res = approximate_surface(V, F, tolerance_rel=1e-3)
+    assert "harmonic" in (res.parameterization.method, res.parameterization.repaired)
+    assert len(res.domain.loops) == 2 and not any("spanned" in m for m in res.parameterization.messages)
+    assert surface_reach(np.asarray(res.surface.ctrl), V, 0.1) < 0.05  # no cap over an end (it stood 0.2 out)
+    assert res.stats["met"]
+
+
+def test_a_wide_hole_the_map_squeezes_shut_is_kept_by_the_harmonic_map(monkeypatch):
+    V, F = _tube(along=12)
+    top = np.arange(11 * 60, 12 * 60)[::-1]
+    real, calls = pipeline.folded_holes, []
+
+    def squeezed(uv, faces, loops):  # as LSCM leaves a tube's second end: a hole of (nearly) no area
+        calls.append(1)
+        return [top] if len(calls) == 1 else real(uv, faces, loops)
+
+    monkeypatch.setattr(pipeline, "folded_holes", squeezed)
+    uv, faces, p = pipeline._domain_uv(V, F, None, "lscm")
+    assert p.method == "harmonic" and "wide in space (first: 60 vertices around)" in p.messages[0]
+    assert faces.shape == F.shape  # nothing spanned
+
+
+def test_a_hole_s_width_is_a_circle_s_radius_and_a_crack_s_gap():
+    t = np.arange(40) * 2 * np.pi / 40
+    circle = np.column_stack([2 * np.cos(t), 2 * np.sin(t), 0 * t])
+    assert hole_width(circle, np.arange(40)) == pytest.approx(2.0, rel=0.01)
+    x = np.linspace(0.0, 10.0, 21)
+    crack = np.concatenate([np.column_stack([x, 0 * x, 0 * x]), np.column_stack([x[::-1], 0 * x + 0.3, 0 * x])])
+    assert hole_width(crack, np.arange(42)) == pytest.approx(0.3, rel=0.05)
+    assert [len(w) for w in wide_holes(circle, [np.arange(40)])] == [40]  # radius 2 / spacing 0.31 > WIDE_HOLE
+    assert wide_holes(crack, [np.arange(42)]) == [] and WIDE_HOLE > 0.3 / 0.5
