@@ -64,7 +64,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                    help="data mesh for --mode deviation (default: the fit's data vertices stored in the surface)")
     p.add_argument("--view", type=_option(check_view), default="auto", metavar="VIEW",
                    help=f"camera direction: auto (look along the surface's mean normal, from the side it points "
-                        f"to), {', '.join(VIEWS)}, or AZIMUTH,ELEVATION in degrees, z up (default auto)")
+                        f"to; iso for a surface that wraps around, such as a tube), {', '.join(VIEWS)}, or AZIMUTH,ELEVATION in degrees, z up (default auto)")
     p.add_argument("--size", type=_option(parse_size), default=DEFAULT_SIZE, metavar="WxH",
                    help=f"picture width x height in pixels, 16..8192 each (default {DEFAULT_SIZE})")
     p.add_argument("--resolution", type=positive_int, default=None, metavar="N",

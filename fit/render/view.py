@@ -25,7 +25,7 @@ from trispline.spline.tolerances import TINY
 from ..errors import RenderError
 
 __all__ = [
-    "AUTO", "VIEWS", "MAX_SIDE", "View", "parse_view", "check_view", "resolve_view", "parse_size", "mean_normal",
+    "AUTO", "VIEWS", "MAX_SIDE", "WRAPPED_SHARE", "View", "parse_view", "check_view", "resolve_view", "parse_size", "mean_normal",
     "facing_view", "mean_normal_view", "frame",
 ]
 
@@ -37,6 +37,10 @@ AUTO = "auto"
 #: :func:`facing_view` keeps world z up on screen unless the normal is within this many
 #: degrees of vertical; there it keeps world y up (as the ``top`` view does).
 STEEP_DEGREES = 30.0
+#: :func:`facing_view` takes the ``iso`` view where the mean normal's length (the area-weighted normals summed)
+#: is below this share of the total area: a surface that wraps around (an open tube: 0; a half sphere 0.5, a
+#: 240-degree barrel strip 0.41), whose mean normal is round-off or its axis (a tube seen end-on: a circle).
+WRAPPED_SHARE = 0.2
 #: Largest picture side (pixels).
 MAX_SIDE = 8192
 #: Normalised picture box the object is fitted into (left, right, bottom, top), with and
@@ -151,12 +155,19 @@ def mean_normal(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     Zeros where the sum vanishes (no area); on a closed surface, where the normals
     cancel, the direction is round-off. Triangles with non-finite corners are left out.
     """
+    return _normal_sum(V, F)[0]
+
+
+def _normal_sum(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, float]:
+    """``(unit mean normal (3,), its length over the total area)``: see :func:`mean_normal`."""
     V = np.asarray(V, np.float64)
     F = np.asarray(F, np.int64)
     c = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    n = c[np.isfinite(c).all(1)].sum(0)
+    c = c[np.isfinite(c).all(1)]
+    n = c.sum(0)
     norm = float(np.linalg.norm(n))
-    return n / norm if norm > TINY else np.zeros(3)
+    total = float(np.linalg.norm(c, axis=1).sum())
+    return (n / norm if norm > TINY else np.zeros(3)), (norm / total if total > 0 else 0.0)
 
 
 def facing_view(V: np.ndarray, F: np.ndarray) -> View:
@@ -167,10 +178,10 @@ def facing_view(V: np.ndarray, F: np.ndarray) -> View:
     from the front, an upside-down one from below). World z stays up on screen, or
     world y where the normal is within :data:`STEEP_DEGREES` of vertical (so a
     height field is seen as in the ``top`` view). The ``iso`` view where the mesh has
-    no area.
+    no area or wraps around (:data:`WRAPPED_SHARE`).
     """
-    n = mean_normal(V, F)
-    if not n.any():
+    n, share = _normal_sum(V, F)
+    if not n.any() or share < WRAPPED_SHARE:
         return parse_view("iso")
     horizontal = float(np.hypot(n[0], n[1]))
     azimuth = float(np.degrees(np.arctan2(n[1], n[0]))) if horizontal > 0 else -90.0

@@ -89,6 +89,17 @@ def test_default_view_of_zebra_and_curvature_faces_the_front_too():
         assert v["auto"] and rd.View(v["azimuth"], v["elevation"], v["roll"]).toward[2] < -0.99
 
 
+@pytest.mark.parametrize("sweep, wraps", [(360.0, True), (320.0, True), (240.0, False), (90.0, False)])
+def test_a_surface_that_wraps_around_is_seen_from_the_iso_view(sweep, wraps):
+    # a tube (or most of one) has no mean normal to look along: end-on it was a circle
+    a, h = np.meshgrid(np.radians(np.linspace(0.0, sweep, 41)), np.linspace(0.0, 1.0, 5))
+    V = np.column_stack([np.cos(a.ravel()), np.sin(a.ravel()), h.ravel()])
+    i, j = np.meshgrid(np.arange(4), np.arange(40), indexing="ij")
+    p, q = (i * 41 + j).ravel(), (i * 41 + j + 1).ravel()
+    F = np.concatenate([np.column_stack([p, q, q + 41]), np.column_stack([p, q + 41, p + 41])])
+    assert (rd.facing_view(V, F) == rd.parse_view("iso")) is wraps
+
+
 def test_facing_view_keeps_z_or_y_up_and_turns_with_the_mesh():
     V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
     F = np.array([[0, 1, 2]])
