@@ -283,8 +283,8 @@ def run(args: argparse.Namespace, ui: UI, outputs: dict, *, load: Callable, writ
         ui.warn(f"the surface strays {st['reach']:.2g} bounding-box diagonals outside the scan's box, between its "
                 f"vertices (a patch folds or overshoots there): {cure}")
     if st["regularity"] < PINCHED:
-        ui.warn(f"the surface is nearly singular in a patch (its area element's smallest over its largest is "
-                f"{st['regularity']:.2g} of the scan's own under it: the curvature spikes there); {_pinch_cure(st)}")
+        ui.warn(f"the surface is nearly singular in a patch (against the scan's own, its area element falls to "
+                f"{st['regularity']:.2g} of its median there: the curvature spikes); {_pinch_cure(st)}")
     if st["small_holes"] >= SMALL_HOLES_ADVICE and not args.fill_holes:
         ui.warn(f"the scan has {st['small_holes']} holes with at most {SMALL_HOLE} vertices around (dropouts?): the "
                 f"surface keeps each, with three coarse vertices or more; --fill-holes {SMALL_HOLE} spans them")
