@@ -10,6 +10,8 @@ sheet, a helicoid) is sampled as a clean mesh at each density, and interpolated 
 * ``PN``        -- PN triangles (``benchmarks/peers/pn_triangles.py``);
 * ``butterfly`` -- modified Butterfly subdivision, ``--levels`` steps (interpolating);
 * ``loop``      -- Loop subdivision at its limit positions (approximating).
+* ``conformal`` -- with ``--conformal``: the fit given the surface's exact conformal coordinates, where
+  known in closed form (cap, torus, Enneper, barrel, helicoid): what a perfect conformal map would give.
 
 Every method is sampled at the same points: the lattice with ``2**levels`` steps per edge
 of every mesh face (for subdivision, the refined vertices). Each sample's distance to the
@@ -29,6 +31,7 @@ below every peer's, and every peer at least 5x less accurate. The last line says
     python benchmarks/bench_accuracy3d.py                  # 8 surfaces x 200, 800, 3200 vertices
     python benchmarks/bench_accuracy3d.py --quick          # 2 surfaces at 200 vertices, 2 levels
     python benchmarks/bench_accuracy3d.py --surfaces cap,enneper --n 3200 --param harmonic
+    python benchmarks/bench_accuracy3d.py --conformal      # also the fit over exact conformal coordinates
 """
 from __future__ import annotations
 
@@ -154,6 +157,17 @@ def run_case(name: str, n: int, levels: int, param: str, seed: int = 0,
     return out
 
 
+def conformal_case(name: str, n: int, levels: int, seed: int = 0) -> dict[str, float]:
+    """The fit given the exact conformal coordinates of surface ``name`` (as a user's uv: no warp, as the true-uv
+    fit) at about ``n`` vertices, measured as :func:`run_case` measures the others."""
+    mesh = analytic_mesh(name, n, seed=seed)
+    bary = lattice(2**levels) / 2**levels
+    band = Triangulation(mesh.params, mesh.F).boundary_vertex_mask[mesh.F].any(1)
+    t0 = time.perf_counter()
+    s, _ = fit_samples(mesh, bary, ANALYTIC[name].conformal(mesh.params), "uv")
+    return dict(measure(mesh, s, bary, band), seconds=time.perf_counter() - t0)
+
+
 def targets(r: dict[str, dict]) -> dict[str, bool]:
     """Which of the issue's four targets one case meets."""
     t = r["trispline"]
@@ -181,6 +195,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="smooth trispline's parameterization (param.smooth; default: the library's default)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--quick", action="store_true", help="cap and bump_hole at 200 vertices, 2 levels")
+    ap.add_argument("--conformal", action="store_true",
+                    help="also the fit given the surface's exact conformal coordinates, where known in closed form "
+                         "(cap, torus, enneper, barrel240, helicoid): what a perfect conformal map would give")
     a = ap.parse_args(argv)
     if a.quick:
         a.surfaces, a.n, a.levels = "cap,bump_hole", "200", 2
@@ -193,14 +210,20 @@ def main(argv: list[str] | None = None) -> int:
     print(hdr)
     print("-" * len(hdr))
     met: dict[str, int] = {}
+    conformal: list[tuple[float, float, float]] = []  # (trispline / conformal, conformal / true uv, its band / inner)
     ratios: dict[str, list[float]] = {m: [] for m in PEERS + ("true uv",)}
     cases = 0
     for name in a.surfaces.split(","):
         for n in (int(x) for x in a.n.split(",")):
             r = run_case(name, n, a.levels, param, seed=a.seed, smooth=a.smooth == "on")
             nv = r["info"]["nv"]
-            for method in METHODS_3D:
-                ref = r["true uv"]["rms"] if method == "trispline" else r["trispline"]["rms"]
+            if a.conformal and ANALYTIC[name].conformal is not None:
+                r["conformal"] = conformal_case(name, n, a.levels, seed=a.seed)
+                conformal.append((r["trispline"]["rms"] / r["conformal"]["rms"],
+                                  r["conformal"]["rms"] / r["true uv"]["rms"],
+                                  r["conformal"]["band"] / r["conformal"]["inner"]))
+            for method in METHODS_3D + (("conformal",) if "conformal" in r else ()):
+                ref = r["true uv"]["rms"] if method in ("trispline", "conformal") else r["trispline"]["rms"]
                 print(_row(name, nv, method, r[method], ref))
             for m in PEERS + ("true uv",):
                 ratios[m].append(r[m]["rms"] / r["trispline"]["rms"])
@@ -212,6 +235,13 @@ def main(argv: list[str] | None = None) -> int:
     print("RMS over trispline's, geometric mean (cases where both fits ran): " + ", ".join(
         f"{m} {np.exp(np.mean(np.log(v))):.3g}" for m, v in finite.items()))
     print("summary: " + "; ".join(f"{k}: {v}/{cases}" for k, v in met.items()))
+    if conformal:
+        c = np.array(conformal)
+        inexact = c[:, 0] < 1e6  # where the conformal fit is not exact to rounding (Enneper's reproduces its cubic)
+        print(f"exact conformal coordinates ({len(c)} cases): its fit within {TRUE_UV_RATIO:g}x of true uv in "
+              f"{int((c[:, 1] <= TRUE_UV_RATIO).sum())}, its band <= {BAND_RATIO:g}x its interior in "
+              f"{int((c[:, 2] <= BAND_RATIO).sum())}; trispline over it: geometric mean "
+              f"{np.exp(np.log(c[inexact, 0]).mean()):.3g} where it is not exact ({int(inexact.sum())} cases)")
     return 0
 
 

@@ -192,13 +192,45 @@ def _helicoid(s: np.ndarray, t: np.ndarray, pitch: float = 0.35) -> PatchDerivat
                             vv=col([-s * c, -s * sn, z]))
 
 
+def _cap_conformal(st: np.ndarray, R: float = 1.6) -> np.ndarray:
+    """The sphere cap's stereographic projection from its south pole, ``(s, t) R / (R + h)``."""
+    h = np.sqrt(R * R - (st * st).sum(1))
+    return st * (R / (R + h))[:, None]
+
+
+def _torus_conformal(st: np.ndarray, R: float = 1.0, r: float = 0.4) -> np.ndarray:
+    """``(s, integral R / (R + r cos(t / r)) dt)``: the torus's metric ``(w / R)^2 ds^2 + dt^2`` made conformal."""
+    p = st[:, 1] / r
+    y = r * R * 2.0 / np.sqrt(R * R - r * r) * np.arctan(np.sqrt((R - r) / (R + r)) * np.tan(p / 2.0))
+    return np.column_stack([st[:, 0], y])
+
+
+def _helicoid_conformal(st: np.ndarray, pitch: float = 0.35) -> np.ndarray:
+    """``(asinh(s / pitch), t)``: the helicoid's metric ``ds^2 + (s^2 + pitch^2) dt^2`` made conformal."""
+    return np.column_stack([np.arcsinh(st[:, 0] / pitch), st[:, 1]])
+
+
+def _barrel_conformal(st: np.ndarray, wrap: float = 1.22, r0: float = 0.8, bulge: float = 0.15,
+                      half_height: float = 1.0) -> np.ndarray:
+    """``(s, integral sqrt(r'^2 + k^2) / (wrap r) dt)`` (by quadrature): the barrel's metric
+    ``wrap^2 r(t)^2 ds^2 + (r'(t)^2 + k^2) dt^2`` made conformal (see :mod:`.truth`'s barrel)."""
+    t = np.linspace(-1.0, 1.0, 40001)  # beyond the strip (|t| <= 0.7): no clamping at its edges
+    r = r0 * (1 + bulge * (1 - (t / 0.7) ** 2))
+    g = np.sqrt((2 * r0 * bulge * t / 0.49) ** 2 + (half_height / 0.7) ** 2) / (wrap * r)
+    y = np.concatenate([[0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * np.diff(t))])
+    return np.column_stack([st[:, 0], np.interp(st[:, 1], t, y - np.interp(0.0, t, y))])
+
+
 @dataclass(frozen=True)
 class AnalyticSurface:
-    """A chart ``f(s, t)`` with exact derivatives over a parameter :class:`Domain`."""
+    """A chart ``f(s, t)`` with exact derivatives over a parameter :class:`Domain`; ``conformal``, where known in
+    closed form, maps ``st (n, 2)`` to conformal coordinates ``(n, 2)`` of the surface (a map no discretisation
+    error roughens: the yardstick of what a conformal parameterization can give)."""
 
     name: str
     chart: Chart
     domain: Domain
+    conformal: Callable[[np.ndarray], np.ndarray] | None = None
 
     def derivatives(self, st: np.ndarray) -> PatchDerivatives:
         """Values and first and second derivatives ``(n, 3)`` at ``st (n, 2)``."""
@@ -250,15 +282,15 @@ class AnalyticSurface:
 
 #: The surfaces of the benchmark, by name (parameter domains of about unit size).
 ANALYTIC: dict[str, AnalyticSurface] = {s.name: s for s in (
-    AnalyticSurface("cap", TRUTH_CHARTS["cap"], disk(1.0)),
-    AnalyticSurface("torus", _torus, rectangle(-1.0, 1.0, -0.8, 0.8)),
+    AnalyticSurface("cap", TRUTH_CHARTS["cap"], disk(1.0), _cap_conformal),
+    AnalyticSurface("torus", _torus, rectangle(-1.0, 1.0, -0.8, 0.8), _torus_conformal),
     AnalyticSurface("monkey", _monkey, disk(1.0)),
     AnalyticSurface("bump_hole", TRUTH_CHARTS["bumps"], rectangle(*PARAM_BOX, hole=(tuple(HOLE_CENTRE), HOLE_RADIUS))),
-    AnalyticSurface("enneper", _enneper, disk(1.0)),
+    AnalyticSurface("enneper", _enneper, disk(1.0), lambda st: np.array(st, np.float64)),  # its own are conformal
     # truth's barrel wraps 1.22 rad per unit of s: s in +-1.717 is a 240-degree strip
-    AnalyticSurface("barrel240", TRUTH_CHARTS["barrel"], rectangle(-1.717, 1.717, -0.7, 0.7)),
+    AnalyticSurface("barrel240", TRUTH_CHARTS["barrel"], rectangle(-1.717, 1.717, -0.7, 0.7), _barrel_conformal),
     AnalyticSurface("wavy", _wavy, rectangle(-1.0, 1.0, -0.7, 0.7)),
-    AnalyticSurface("helicoid", _helicoid, rectangle(0.3, 1.1, -1.4, 1.4)),
+    AnalyticSurface("helicoid", _helicoid, rectangle(0.3, 1.1, -1.4, 1.4), _helicoid_conformal),
 )}
 
 
