@@ -415,13 +415,18 @@ def test_output_onto_the_input_is_refused(tmp_path, capsys):
     before.assert_unchanged()
 
 
+#: The writer waits in short sleeps: the kernel may hand the signal to one of the child's other threads (numpy's
+#: BLAS pool), whose handler only flags it, and a main thread in one long ``sleep(60)`` then saw it after a minute
+#: (about 1 run in 12 hung past the test's 30 s, for SIGINT and SIGTERM alike); a program at work checks the flag
+#: between bytecodes, as this loop does every 20 ms.
 _WRITER = """
 import sys, time
 from trispline.spline.util.atomic import AtomicOutputs
 with AtomicOutputs() as out:
     out.path(sys.argv[1]).write_bytes(b"partial")
     print("ready", flush=True)
-    time.sleep(60)
+    for _ in range(3000):
+        time.sleep(0.02)
 """
 
 
