@@ -32,6 +32,7 @@ from .topology import Triangulation, face_bary_gradients
 
 __all__ = [
     "PatchDerivatives",
+    "area_elements",
     "check_ctrl",
     "edge_samples",
     "evaluate",
@@ -194,18 +195,25 @@ def evaluate_grid(
     return np.ascontiguousarray(vals), du, dv
 
 
+def area_elements(uv: np.ndarray, faces: np.ndarray, ctrl: np.ndarray, resolution: int = 8) -> np.ndarray:
+    """``(F, m)`` each patch's area element ``|F_u x F_v|`` at the ``m`` points of the lattice of ``resolution``
+    steps per edge (:func:`~trispline.spline.index.lattice`, in its order), in chunks of patches.
+    ``ctrl (F, 21, 3)``."""
+    bary = lattice(resolution) / resolution
+    out = np.empty((np.shape(ctrl)[0], bary.shape[0]))
+    for sl in _chunks(out.shape[0]):
+        _, du, dv = evaluate_grid(ctrl[sl], bary, uv=uv, faces=np.asarray(faces)[sl])
+        out[sl] = np.linalg.norm(np.cross(du, dv), axis=2)
+    return out
+
+
 def regularity(uv: np.ndarray, faces: np.ndarray, ctrl: np.ndarray, resolution: int = 8) -> np.ndarray:
     """``(F,)`` each patch's smallest area element ``|F_u x F_v|`` over its largest, on the lattice of
-    ``resolution`` steps per edge (:func:`~trispline.spline.index.lattice`): about 1 for a patch whose
+    ``resolution`` steps per edge (:func:`area_elements`): about 1 for a patch whose
     map to space is nearly affine, near 0 for one pinched toward a singular point (where the surface
     has no tangent plane and its curvature blows up), 0 at a fold. ``ctrl (F, 21, 3)``."""
-    bary = lattice(resolution) / resolution
-    out = np.empty(np.shape(ctrl)[0])
-    for sl in _chunks(out.size):
-        _, du, dv = evaluate_grid(ctrl[sl], bary, uv=uv, faces=np.asarray(faces)[sl])
-        area = np.linalg.norm(np.cross(du, dv), axis=2)  # (f, n)
-        out[sl] = area.min(1) / np.maximum(area.max(1), np.finfo(float).tiny)
-    return out
+    area = area_elements(uv, faces, ctrl, resolution)
+    return area.min(1) / np.maximum(area.max(1), np.finfo(float).tiny)
 
 
 def edge_samples(tri: Triangulation, edges: np.ndarray, t: np.ndarray, *, side: int | None = None

@@ -55,18 +55,24 @@ def folded_holes(uv: np.ndarray, faces: np.ndarray, loops: list[np.ndarray]) -> 
     return [h for h in loops[1:] if polygon_area(uv[h]) > -SPAN_HOLE_AREA * unit * h.size]
 
 
-def hole_width(V: np.ndarray, loop: np.ndarray) -> float:
-    """Twice the loop's vector area over its length, in space (``V (n, 3)``, ``loop (k,)``): a circle's radius,
-    the gap of a crack between two long sides."""
+def _width_and_length(V: np.ndarray, loop: np.ndarray) -> tuple[float, float]:
+    """``(hole_width, length)`` of the loop ``loop (k,)`` in space (``V (n, 3)``)."""
     P = V[loop] - V[loop].mean(0)
     Q = np.roll(P, -1, axis=0)
     length = float(np.linalg.norm(Q - P, axis=1).sum())
-    return float(np.linalg.norm(np.cross(P, Q).sum(0))) / max(length, np.finfo(float).tiny)
+    return float(np.linalg.norm(np.cross(P, Q).sum(0))) / max(length, np.finfo(float).tiny), length
+
+
+def hole_width(V: np.ndarray, loop: np.ndarray) -> float:
+    """Twice the loop's vector area over its length, in space (``V (n, 3)``, ``loop (k,)``): a circle's radius,
+    the gap of a crack between two long sides."""
+    return _width_and_length(V, loop)[0]
 
 
 def wide_holes(V: np.ndarray, holes: list[np.ndarray]) -> list[np.ndarray]:
     """The holes of ``holes`` at least :data:`WIDE_HOLE` of their mean edge lengths wide (:func:`hole_width`)."""
-    return [h for h in holes if hole_width(V, h) >= WIDE_HOLE * np.linalg.norm(V[np.roll(h, -1)] - V[h], axis=1).mean()]
+    measured = [(h, *_width_and_length(V, h)) for h in holes]
+    return [h for h, width, length in measured if width >= WIDE_HOLE * length / h.size]
 
 
 def span_holes(F: np.ndarray, holes: list[np.ndarray]) -> np.ndarray:

@@ -21,12 +21,13 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from trispline.spline.index import lattice
-from trispline.spline.patches import evaluate_grid
+from trispline.spline.patches import area_elements
 from trispline.spline.surface import SplineSurface
 
 __all__ = ["RESOLUTION", "area_ratios", "relative_regularity"]
 
-#: Steps per patch edge of the lattice sampled (that of :func:`~trispline.spline.patches.regularity`).
+#: Steps per patch edge of the lattice sampled (:func:`~trispline.spline.patches.area_elements`, as
+#: :func:`~trispline.spline.patches.regularity` samples it).
 RESOLUTION = 8
 
 
@@ -34,10 +35,8 @@ def area_ratios(surface: SplineSurface, scan_uv: np.ndarray, element: np.ndarray
                 resolution: int = RESOLUTION) -> np.ndarray:
     """``(f, m)`` the surface's area element on the lattice of ``resolution`` steps per patch edge over the
     scan's own (``element (n,)``) at the scan vertex nearest in uv (``scan_uv (n, 2)``)."""
-    bary = lattice(resolution) / resolution
-    _, du, dv = evaluate_grid(np.asarray(surface.ctrl), bary, uv=surface.uv, faces=surface.faces)
-    area = np.linalg.norm(np.cross(du, dv), axis=2)  # (f, m)
-    at = np.einsum("mk,fkd->fmd", bary, surface.uv[surface.faces])
+    area = area_elements(surface.uv, surface.faces, np.asarray(surface.ctrl), resolution)  # (f, m)
+    at = np.einsum("mk,fkd->fmd", lattice(resolution) / resolution, surface.uv[surface.faces])
     _, near = cKDTree(scan_uv).query(at.reshape(-1, 2))
     return area / np.maximum(element[near].reshape(area.shape), np.finfo(float).tiny)
 
