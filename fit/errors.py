@@ -7,7 +7,13 @@ from trispline.spline.errors import InputError, OutputError
 
 
 class FitError(RuntimeError):
-    """The solver did not converge (raised by :func:`fit_surface` unless ``throw=False``)."""
+    """The solver did not converge (raised by :func:`fit_surface` unless ``throw=False``): it stopped after
+    ``steps`` of at most ``max_steps`` Gauss-Newton steps."""
+
+    def __init__(self, message: str, *, steps: int = 0, max_steps: int = 0) -> None:
+        super().__init__(message)
+        self.steps = steps
+        self.max_steps = max_steps
 
 
 class FactorMemoryError(InputError):
@@ -51,3 +57,8 @@ class UsageError(InputError):
 
 class CommandFailed(RuntimeError):
     """The command could not finish for a reason that is not a bug (exit 1, one line)."""
+
+
+class ResultRejected(RuntimeError):
+    """The command finished its work but the result misses what was asked (a fit that did not converge within
+    its steps): exit 3, one line, nothing written."""

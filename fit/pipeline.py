@@ -225,8 +225,7 @@ def fit_surface(
     if throw and not ok:
         raise FitError(
             f"the fit did not converge in {steps} Gauss-Newton steps (max_steps={max_steps}); "
-            "pass throw=False to inspect the result"
-        )
+            "pass throw=False to inspect the result", steps=int(steps), max_steps=int(max_steps))
     return FitResult(**result, timings=clock.timings, curved_outline=curved, smooth_map=smooth_map)
 
 
@@ -274,6 +273,12 @@ WILD_NET = 0.5
 OVERSHOOT = 0.1
 
 
+#: Domain triangles no thinner than this (longest edge / height) are not named as the cause of a normal matrix
+#: that float64 cannot factor (the failures measured had 1e5-1e8; a mesh of aspect-6 triangles failed under a
+#: SLIM map that squeezed areas 67-fold).
+UNREMARKABLE_ASPECT = 100.0
+
+
 def _thin_triangles(uv: np.ndarray, faces: np.ndarray, V: np.ndarray, why: str) -> str:
     """The message of a normal matrix float64 cannot factor: the domain's thinnest triangles, whose C1
     conditions span too many orders of magnitude (a point 1.4e-6 from the outline of a unit square: aspect
@@ -282,6 +287,10 @@ def _thin_triangles(uv: np.ndarray, faces: np.ndarray, V: np.ndarray, why: str) 
     aspect = face_aspects(uv, faces)
     worst = np.argsort(aspect)[::-1][:THIN_NAMED]
     named = ", ".join(f"{tuple(int(v) for v in faces[f])} {aspect[f]:.3g}" for f in worst)
+    if aspect[worst[0]] < UNREMARKABLE_ASPECT:  # no sliver to blame: the map itself
+        return (f"the fit cannot be solved in float64: {why}; no triangle of the domain is thin (the thinnest, "
+                f"longest edge / height: {named}): the map distorts the mesh too much; try another --param "
+                "(lscm, harmonic, slim), or approximate the scan (--tolerance-rel)")
     hull = bool(hull_sliver_faces(V, faces)[worst].any())
     return (f"the fit cannot be solved in float64: {why}; the thinnest triangles (vertices, longest edge / height) "
             f"are {named}: " + ("hull slivers of scattered points, which repair_mesh (--repair) peels off; or "

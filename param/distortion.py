@@ -221,7 +221,10 @@ def warning(summary: dict[str, Any], folds: int = 0, method: str | None = None) 
                    f"above {AREA_DISTORTION_WARN:g}")
     if not why:
         return None
-    if sheared and method == "uv":  # the user's own parameters: another map would change what is fitted
+    if folds and method == "uv":  # the user's parameters folded: the repaired map replaced them
+        advice = ("; the given uv folded, so the fit uses the repaired map, not that uv (or --param auto maps the "
+                  "mesh itself)")
+    elif sheared and method == "uv":  # the user's own parameters: another map would change what is fitted
         advice = ("; the fit may spike there: the given uv is used as is (thin triangles: trispline info --repair; "
                   "or --param auto maps the mesh itself)")
     elif sheared and method not in ("slim", "auto"):
@@ -264,10 +267,10 @@ def distortion_report(V: np.ndarray, F: np.ndarray, uv: np.ndarray) -> dict[str,
 
 def conformal_energy(V: np.ndarray, F: np.ndarray, uv: np.ndarray) -> float:
     """Area-weighted conformal (MIPS) energy ``sum A_f (s1 / s2 + s2 / s1)`` of the map (2 x area for
-    a conformal map; infinite for a fold), the energy :func:`~trispline.param.methods.slim_uv` lowers."""
+    a conformal map; infinite for a fold or a non-finite map), the energy :func:`~trispline.param.methods.slim_uv` lowers."""
     J = face_jacobians(V, F, uv)
-    s = np.linalg.svd(J, compute_uv=False)
-    if (np.linalg.det(J) <= 0).any():
+    if not np.isfinite(J).all() or (np.linalg.det(J) <= 0).any():
         return float(np.inf)
+    s = np.linalg.svd(J, compute_uv=False)
     a3 = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
     return float((a3 * (s[:, 0] / s[:, 1] + s[:, 1] / s[:, 0])).sum())

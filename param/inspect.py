@@ -22,7 +22,7 @@ from .hull import edge_lengths, hull_sliver_faces
 from .parameterize import parameterize
 from .repair_mesh import repair_mesh
 from .tables import boundary_loop_count, fan_counts, small_holes, undirected_edges, vertex_components
-from .validate import (ValidatedMesh, as_mesh_arrays, folded_edges, repeated_vertex_faces, validate_mesh,
+from .validate import (ValidatedMesh, as_mesh_arrays, folded_edges, repeated_vertex_faces, scale_problem, validate_mesh,
                        zero_area_faces)
 
 
@@ -77,8 +77,9 @@ def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False, re
     rep: dict[str, Any] = dict(vertices=nv, faces=nf, non_finite_vertices=int((~finite).sum()))
     if finite.any():
         rep["bounds"] = [V[finite].min(0), V[finite].max(0)]
+    measurable = finite.all() and scale_problem(V) is None  # else the geometric reports overflow: validation says why
     repeated = repeated_vertex_faces(F)
-    zero = zero_area_faces(V, F) if finite.all() else np.zeros(nf, bool)
+    zero = zero_area_faces(V, F) if measurable else np.zeros(nf, bool)
     rep["degenerate_faces"] = dict(repeated_vertex=int(repeated.sum()), zero_area=int((zero & ~repeated).sum()))
     _, edges, he_edge, edge_count = undirected_edges(F, nv)
     proper = edges[:, 0] != edges[:, 1]  # a face with a repeated vertex has an edge (a, a)
@@ -95,8 +96,8 @@ def inspect_mesh(V: np.ndarray, F: np.ndarray, *, keep_largest: bool = False, re
         bow = int((fan_counts(F, he_edge, nv) > 1).sum())
         rep["bowtie_vertices"] = bow
     rep["manifold"] = bool(rep["non_manifold_edges"] == 0 and bow == 0 and not repeated.any())
-    rep.update(fold_report(V, F) if finite.all() else dict(folded_edges=0, worst_fold_degrees=None))
-    rep.update(hull_report(V, F) if finite.all() and not repeated.any()
+    rep.update(fold_report(V, F) if measurable else dict(folded_edges=0, worst_fold_degrees=None))
+    rep.update(hull_report(V, F) if measurable and not repeated.any()
                else dict(hull_slivers=0, longest_outline_edge=None))
     if rep["manifold"]:
         _loop_counts(rep, edges, count, nv)

@@ -114,10 +114,13 @@ def slim_uv(vm: ValidatedMesh, *, max_iterations: int = SLIM_MAX_ITERATIONS,
     uv = start
     began = time.perf_counter()
     for k in range(max_iterations):
-        uv = _igl.slim_iterate(data, 1)
+        step = _igl.slim_iterate(data, 1)
         report((k + 1) / max_iterations)
-        e = conformal_energy(V, F, uv[:nv])
-        if not np.isfinite(e) or energy - e <= SLIM_RTOL * energy or time.perf_counter() - began > max_seconds:
+        e = conformal_energy(V, F, step[:nv])
+        if not np.isfinite(e):  # a step that folded or broke down (NaN on some flat meshes): the last map stays
+            break
+        uv = step
+        if energy - e <= SLIM_RTOL * energy or time.perf_counter() - began > max_seconds:
             break
         energy = e
     return uv[:nv]

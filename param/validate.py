@@ -15,7 +15,7 @@ import numpy as np
 
 from trispline.spline.checks import as_array
 from trispline.spline.errors import InputError, first_few
-from trispline.spline.tolerances import MAX_DOMAIN_ASPECT, MIN_RELATIVE_AREA_3D
+from trispline.spline.tolerances import MAX_DOMAIN_ASPECT, MAX_MAGNITUDE, MIN_EXTENT, MIN_RELATIVE_AREA_3D
 
 from .errors import MeshError
 from .tables import boundary_loops, edge_pairs, fan_counts, orientation_classes, undirected_edges, vertex_components
@@ -234,6 +234,24 @@ REPAIRABLE = frozenset({"repeated_vertex_id", "zero_area", "duplicate_faces", "n
                         "bowtie_vertices"})
 
 
+def scale_problem(V: np.ndarray, ids: np.ndarray | None = None) -> str | None:
+    """Why finite coordinates ``V (nv, 3)`` are beyond what double precision computes with (their squares
+    overflow past :data:`MAX_MAGNITUDE`, underflow below :data:`MIN_EXTENT`), or None; ``ids``: the vertices'
+    numbers in the message."""
+    if not V.size:
+        return None
+    big = np.abs(V).max(1)
+    if big.max() > MAX_MAGNITUDE:
+        at = int(np.argmax(big))
+        return (f"vertex coordinates reach {big[at]:.3g} (vertex {at if ids is None else ids[at]}): beyond "
+                f"{MAX_MAGNITUDE:g} their squares overflow double precision; rescale the mesh (other units)")
+    extent = float((V.max(0) - V.min(0)).max())  # not the diagonal: its squares may underflow
+    if 0 < extent < MIN_EXTENT:
+        return (f"the mesh spans only {extent:.3g} (its bounding box's longest side): below {MIN_EXTENT:g} its "
+                "squared areas underflow double precision; rescale the mesh (other units)")
+    return None
+
+
 def _check_ids(V: np.ndarray, F: np.ndarray, ids: np.ndarray) -> None:
     """Stage 1: problems that make everything else meaningless (raised at once); ``ids (nv,)``: the
     vertices' numbers in messages."""
@@ -242,6 +260,8 @@ def _check_ids(V: np.ndarray, F: np.ndarray, ids: np.ndarray) -> None:
     if bad_v.size:
         raise MeshError(f"non-finite vertex coordinates (NaN or inf) at vertices {first_few(ids[bad_v])}",
                         ["non_finite"])
+    if (why := scale_problem(V, ids)) is not None:
+        raise MeshError(why, ["scale"])
     problems: list[tuple[str, str]] = []
     out = np.flatnonzero(((F < 0) | (F >= nv)).any(1))
     if out.size:

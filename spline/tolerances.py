@@ -95,6 +95,12 @@ ZEBRA_MIN_COS = 1e-3
 #: the fit: at 1e7 the fit's normal matrix is no longer positive definite in float64 (measured:
 #: a sliver of height 1e-6 on a unit base fits with C1 residual 1e-16, one of 1e-7 fails).
 MAX_DOMAIN_ASPECT = 1e6
+#: Coordinates (of a mesh, a surface's control points or its uv) of larger magnitude are refused, and so is a
+#: mesh whose bounding-box diagonal is below :data:`MIN_EXTENT`: lengths are squared twice in areas and
+#: normal equations, which overflow (underflow) double precision from about 1e77 (1e-77); measured, a
+#: mesh scaled by 1e76 or 1e-76 fits as at unit scale, one at 1e80 or 1e-80 did not.
+MAX_MAGNITUDE = 1e60
+MIN_EXTENT = 1e-60
 #: Data whose float64 coordinates keep less than this fraction of their extent (``eps * max|V| /
 #: extent``: 5e-11 for a 20 m tile at UTM's 5e6 m) get a warning: the stored net's continuity is
 #: only known to about 100 times that (the check's precision floor).

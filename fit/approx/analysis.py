@@ -367,9 +367,10 @@ class _Grid:
         du, dv = C[:, 1], C[:, 2]
         H, K = curvatures(du, dv, 2 * C[:, 3], C[:, 4], 2 * C[:, 5])
         det = np.einsum("nd,nd->n", du, du) * np.einsum("nd,nd->n", dv, dv) - np.einsum("nd,nd->n", du, dv) ** 2
-        bias = noise**2 * (4 * Ainv[:, 3, 3] + 2 * Ainv[:, 4, 4] + 4 * Ainv[:, 5, 5]) / np.maximum(det, 1e-300)
-        kappa = np.sqrt(np.maximum(4 * H * H - 2 * K - bias, 0.0)).reshape(self.shape)
-        valid = self.valid & np.isfinite(kappa)
+        with np.errstate(over="ignore", invalid="ignore"):  # a cell whose quadric is degenerate: left invalid
+            bias = noise**2 * (4 * Ainv[:, 3, 3] + 2 * Ainv[:, 4, 4] + 4 * Ainv[:, 5, 5]) / np.maximum(det, 1e-300)
+            kappa = np.sqrt(np.maximum(4 * H * H - 2 * K - bias, 0.0)).reshape(self.shape)
+        valid = self.valid & np.isfinite(kappa) & np.isfinite(bias).reshape(self.shape)
         smooth = ndimage.median_filter(_fill(np.where(valid, kappa, 0.0), valid), size=3, mode="nearest")
         return smooth, float(np.median(bias[valid.reshape(-1)])) if valid.any() else 0.0
 

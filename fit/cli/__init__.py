@@ -41,7 +41,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = Parser(
         prog=PROG,
         description="Fit exactly C1 quintic triangular spline surfaces to open triangle meshes.",
-        epilog="Exit codes: 0 ok, 1 internal failure, 2 bad input, 3 check/info found a problem.",
+        epilog="Exit codes: 0 ok, 1 internal failure, 2 bad input, 3 the result misses what was asked "
+               "(check/info found a problem, a fit did not converge, --strict tolerance not met).",
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {version()}")
     parser.add_argument("--debug", action="store_true", help="show the full traceback of internal failures")

@@ -23,7 +23,7 @@ import numpy as np
 from trispline.spline.errors import InputError
 from trispline.spline.util import atomic
 
-from ..errors import CommandFailed, UsageError
+from ..errors import CommandFailed, ResultRejected, UsageError
 
 __all__ = [
     "PROG", "EXIT_OK", "EXIT_FAILURE", "EXIT_INPUT", "EXIT_CHECK", "EXIT_INTERRUPTED", "EXIT_TERMINATED",
@@ -295,6 +295,11 @@ def positive_int(text: str) -> int:
     return _integer(text, 1, "a positive integer")
 
 
+def int_at_least(least: int) -> Callable[[str], int]:
+    """argparse type: an integer >= ``least``."""
+    return lambda text: _integer(text, least, f"an integer >= {least}")
+
+
 def nonneg_float(text: str) -> float:
     """argparse type: a finite number >= 0."""
     v = _number(text)
@@ -391,6 +396,8 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
             def show(message, category, filename, lineno, file=None, line=None):
                 if issubclass(category, UserWarning):
                     ui.warn(str(message))
+                elif issubclass(category, RuntimeWarning) and not debug:
+                    pass  # floating-point noise (an overflow in a discarded branch): nothing a user can act on
                 else:  # pragma: no cover - third-party warnings keep their usual form
                     shown(message, category, filename, lineno, file, line)
 
@@ -420,6 +427,11 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
         except (OSError, ValueError, AttributeError):  # a stdout without a file descriptor
             pass
         return EXIT_BROKEN_PIPE
+    except ResultRejected as exc:
+        if debug:
+            traceback.print_exc()
+        print(f"{PROG}: error: {one_line(str(exc))}", file=sys.stderr)
+        return EXIT_CHECK
     except (InputError, CommandFailed) as exc:
         if debug:
             traceback.print_exc()

@@ -30,11 +30,13 @@ import numpy as np
 from trispline.param import DEFAULT_METHOD, METHODS, refuse_slivers
 from trispline.spline.tolerances import FAR_PRECISION
 
-from ..errors import CommandFailed, FitError, UsageError
+from ..errors import FitError, ResultRejected, UsageError
 from ..stages import FIT_STAGES
 from ..weights import FitWeights
 from . import approximate
-from .common import EXIT_OK, UI, add_common, check_output, distinct, fmt, nonneg_float, positive_int, prefetch
+from .common import (
+    EXIT_OK, UI, add_common, check_output, distinct, fmt, int_at_least, nonneg_float, positive_int, prefetch,
+)
 
 __all__ = ["WEIGHT_FIELDS", "WEIGHT_HELP", "FIT_STAGES", "EXAMPLE_FACES", "MAX_FIT_RINGS", "MAX_BLEND_POWER",
            "add_parsers", "cmd_fit", "cmd_demo"]
@@ -44,6 +46,14 @@ __all__ = ["WEIGHT_FIELDS", "WEIGHT_HELP", "FIT_STAGES", "EXAMPLE_FACES", "MAX_F
 FIT_MODULES = ("jax", "jax.numpy", "optimistix")
 #: Default faces of the built-in example scan.
 EXAMPLE_FACES = 800
+
+
+def example_faces(text: str) -> int:
+    """argparse type of ``--example-faces``: at least the built-in scan's
+    :data:`~trispline.fit.datasets.synthetic.MIN_FACES` (imported only when the option is given)."""
+    from ..datasets.synthetic import MIN_FACES
+
+    return int_at_least(MIN_FACES)(text)
 #: One flag per :class:`~trispline.fit.weights.FitWeights` field: ``(name, type of its default)``
 #: (``trispline.fit.weights`` imports no JAX, so the parser stays fast).
 WEIGHT_FIELDS: tuple[tuple[str, type], ...] = tuple(
@@ -80,7 +90,7 @@ def add_parsers(sub: Any) -> None:
                                    "units).")
     p.add_argument("mesh", nargs="?", metavar="MESH", help="input mesh (.obj .off .ply .stl .glb .gltf)")
     p.add_argument("--example", action="store_true", help="fit the built-in synthetic scan instead of MESH")
-    p.add_argument("--example-faces", type=positive_int, default=EXAMPLE_FACES, metavar="N",
+    p.add_argument("--example-faces", type=example_faces, default=EXAMPLE_FACES, metavar="N",
                    help=f"triangles of the built-in scan, with --example (default {EXAMPLE_FACES})")
     p.add_argument("-o", "--output", required=True, metavar="SURFACE", help="surface file to write (.npz or .json; required)")
     _add_fit_options(p)
@@ -93,7 +103,7 @@ def add_parsers(sub: Any) -> None:
                                    "and write DIR/scan.obj, DIR/surface.npz, DIR/surface.ply and DIR/surface.png.")
     p.add_argument("-o", "--output-dir", default="trispline-demo", metavar="DIR",
                    help="folder for the results (created; default trispline-demo)")
-    p.add_argument("--example-faces", type=positive_int, default=EXAMPLE_FACES, metavar="N",
+    p.add_argument("--example-faces", type=example_faces, default=EXAMPLE_FACES, metavar="N",
                    help=f"triangles of the built-in scan (default {EXAMPLE_FACES})")
     _add_fit_options(p, outputs=False)
     add_common(p)
@@ -417,7 +427,13 @@ def _warn_far_from_origin(ui: UI, V: np.ndarray) -> None:
 
 
 def _check_output_sizes(args: argparse.Namespace, mesh: _Input, outputs: dict[str, Path | None]) -> None:
-    """Refuse (ResourceError, exit 2) a --mesh-out tessellation that cannot fit in memory, before the fit."""
+    """Refuse (exit 2), before the fit, a --mesh-out tessellation that cannot fit in memory, and a mesh output whose
+    format cannot hold the data's coordinates (STL, GLB: 32-bit floats)."""
+    from ..io.formats import check_coordinate_range
+
+    for key in ("mesh", "control_net"):
+        if outputs.get(key) is not None:
+            check_coordinate_range(outputs[key], float(np.abs(mesh.V).max()))
     if outputs.get("mesh") is None:
         return
     from trispline.spline.tessellate import require_tessellation_memory
@@ -455,7 +471,8 @@ def _solve(args: argparse.Namespace, ui: UI, mesh: _Input, p: Any, weights: FitW
             result = fit_surface(mesh.V, p.faces, param=p, weights=weights, max_steps=args.max_steps,
                                  progress=_progress(bar))
         except FitError as exc:
-            raise CommandFailed(f"{exc} (try a larger --max-steps or other weights)") from exc
+            raise ResultRejected(f"the fit did not converge in {exc.steps} Gauss-Newton steps (--max-steps "
+                                 f"{args.max_steps}); nothing written: raise --max-steps, or lower --angle") from exc
         seconds = time.perf_counter() - t0
     return result, seconds
 

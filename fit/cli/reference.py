@@ -23,8 +23,9 @@ _INTRO = f"""# Command-line reference
 Generated from the parser by `python -m trispline.fit.cli.reference` (do not edit by hand);
 `{PROG} COMMAND --help` prints the same. Every command takes `--json` (the result as JSON on
 stdout, nothing else there), `-q/--quiet` and `--debug`. Exit codes: 0 success, 1 internal
-failure, 2 bad input (one line `{PROG}: error: ...` on stderr, nothing written), 3 `check` or
-`info` found a problem, 130 interrupted, 143 terminated, 141 stdout closed by its reader. Outputs are written atomically: a
+failure, 2 bad input (one line `{PROG}: error: ...` on stderr, nothing written), 3 the result misses
+what was asked (`check` or `info` found a problem, a fit did not converge within `--max-steps`, or
+`--strict` missed its tolerance; nothing written), 130 interrupted, 143 terminated, 141 stdout closed by its reader. Outputs are written atomically: a
 failed command leaves no file behind, and an existing output is untouched.
 """
 

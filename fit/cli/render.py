@@ -98,7 +98,8 @@ def _text(d: dict) -> str:
     stats = d["stats"]
     extra = ""
     if d["mode"] == "curvature":
-        extra = f", {stats['curvature']} curvature in [{stats['min']:.3g}, {stats['max']:.3g}]"
+        span = "undefined" if stats["min"] is None else f"in [{stats['min']:.3g}, {stats['max']:.3g}]"
+        extra = f", {stats['curvature']} curvature {span}"
     elif d["mode"] == "deviation":
         extra = f", max deviation {stats['max_abs']:.3g}, RMS {stats['rms']:.3g}"
     elif d["mode"] == "zebra":

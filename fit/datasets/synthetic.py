@@ -21,9 +21,11 @@ from scipy.spatial import Delaunay
 
 from .checks import scan_arguments
 
-__all__ = ["HOLE_CENTRE", "HOLE_RADIUS", "NOISE", "NOISE_PER_SPACING", "ROTATION", "scan_height", "synthetic_scan"]
+__all__ = ["HOLE_CENTRE", "HOLE_RADIUS", "MIN_FACES", "NOISE", "NOISE_PER_SPACING", "ROTATION", "scan_height", "synthetic_scan"]
 
 #: Centre and radius of the hole in the (pre-rotation) xy-plane.
+#: The fewest triangles the scan is generated with (the hole and the bumps need a few rings of them).
+MIN_FACES = 60
 HOLE_CENTRE = np.array([0.35, -0.2])
 HOLE_RADIUS = 0.25
 #: The default noise: its standard deviation, and at most this fraction of the point spacing.
@@ -70,7 +72,7 @@ def synthetic_scan(
     V : (nv, 3) float64
     F : (nf, 3) int64, consistently oriented (counter-clockwise seen from +z before rotation)
     """
-    n_faces = scan_arguments(n_faces, NOISE if noise is None else noise, least=60)
+    n_faces = scan_arguments(n_faces, NOISE if noise is None else noise, least=MIN_FACES)
     rng = np.random.default_rng(seed)
     area = np.pi * (1.0 - (HOLE_RADIUS**2 if hole else 0.0))
     h = float(np.sqrt(2.0 * area / (np.sqrt(3.0) / 2.0) / n_faces))  # hex spacing

@@ -27,6 +27,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from trispline.spline.tolerances import TINY
+
 from . import data
 from .arrays import Array, array_module
 from .data import DataPoints
@@ -98,7 +100,7 @@ def residual(ctrl: Array, frames: Array, a: dict) -> Array:
     """``(s, d)`` robust residuals ``psi(e)`` of the surface of ``ctrl (n, 21, d)`` at the samples."""
     xp = array_module(ctrl)
     e = data.residual(ctrl, frames, a)
-    q = xp.sum(e * e, axis=1) / (a["tau"] * a["tau"])
+    q = xp.sum(e * e, axis=1) / xp.maximum(a["tau"] * a["tau"], TINY)  # tau 0: a data weight of 0, e 0 too
     return e * gain(q, a["cauchy"])[:, None]
 
 

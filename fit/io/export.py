@@ -37,7 +37,9 @@ from trispline.spline.tessellate import Tessellation, require_tessellation_memor
 from trispline.spline.util.atomic import AtomicOutputs, write_with
 
 from ..errors import ExportFormatError, LargeExportWarning
-from .formats import CAD_FORMATS, EXPORT_FORMATS, IMAGE_FORMATS, MESH_FORMATS, SURFACE_FORMATS, check_export_path
+from .formats import (
+    CAD_FORMATS, EXPORT_FORMATS, IMAGE_FORMATS, MESH_FORMATS, SURFACE_FORMATS, check_coordinate_range, check_export_path,
+)
 from .sizes import estimate_export_bytes, export_resolution
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -124,6 +126,12 @@ def control_net_mesh(surface: "SplineSurface") -> "trimesh.Trimesh":
 
 
 # ------------------------------------------------------------------------ writers
+def _largest(points: np.ndarray) -> float:
+    """The largest coordinate magnitude of ``points (..., 3)`` (0 for none)."""
+    a = np.asarray(points)
+    return float(np.abs(a).max()) if a.size else 0.0
+
+
 def _write_ply(vertices: np.ndarray, triangles: np.ndarray, normals: np.ndarray | None, tmp: Path) -> None:
     """Binary little-endian PLY in double precision (trimesh's writer stores float32)."""
     fields = [("xyz", "<f8", (3,))] + ([("n", "<f8", (3,))] if normals is not None else [])
@@ -177,6 +185,7 @@ def export_mesh(
     """Write a plain triangle mesh ``V (nv, 3)``, ``F (nf, 3)`` (optional ``normals (nv, 3)``)
     to OBJ/PLY/STL/GLB/OFF atomically, vertex order kept."""
     suffix = check_export_path(path, MESH_FORMATS)
+    check_coordinate_range(path, _largest(V))
     mesh = _trimesh(np.asarray(V, float), np.asarray(F, np.int64), normals)
     return write_with(path, lambda tmp: _write_mesh(mesh, tmp, suffix, normals is not None), outputs)
 
@@ -203,6 +212,7 @@ def export_surface(
     """
     suffix = check_export_path(path)
     if suffix in MESH_FORMATS:
+        check_coordinate_range(path, _largest(surface.ctrl))  # the surface lies in its control points' hull
         r = export_resolution(surface.n_faces) if resolution is None else int(resolution)
         tri = surface.triangulation  # a tessellation beyond the memory is refused before the size warning
         require_tessellation_memory(tri.n_vertices, tri.n_edges, tri.n_faces, r, np.asarray(surface.ctrl).shape[2])
@@ -236,6 +246,7 @@ def export_control_net(
     if lines:
         points, _, segments = control_net(surface)
         return write_with(path, lambda tmp: _write_obj_lines(points, segments, tmp), outputs)
+    check_coordinate_range(path, _largest(surface.ctrl))
     mesh = control_net_mesh(surface)
     return write_with(path, lambda tmp: _write_mesh(mesh, tmp, suffix, False), outputs)
 

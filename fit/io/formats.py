@@ -13,7 +13,8 @@ from pathlib import Path
 
 from ..errors import ExportFormatError
 
-__all__ = ["MESH_FORMATS", "SURFACE_FORMATS", "IMAGE_FORMATS", "CAD_FORMATS", "EXPORT_FORMATS", "check_export_path"]
+__all__ = ["MESH_FORMATS", "SURFACE_FORMATS", "IMAGE_FORMATS", "CAD_FORMATS", "EXPORT_FORMATS", "FLOAT32_FORMATS",
+           "check_export_path", "check_coordinate_range"]
 
 #: Tessellated-mesh formats (through trimesh).
 MESH_FORMATS = (".obj", ".ply", ".stl", ".glb", ".off")
@@ -24,6 +25,10 @@ IMAGE_FORMATS = (".png",)
 #: Exact CAD formats (:mod:`.cad`: STEP and IGES through Open CASCADE, 3dm through rhino3dm).
 CAD_FORMATS = (".step", ".stp", ".iges", ".igs", ".3dm")
 EXPORT_FORMATS = MESH_FORMATS + SURFACE_FORMATS + IMAGE_FORMATS + CAD_FORMATS
+#: Mesh formats that store 32-bit floats (trimesh writes STL and glTF binary so): coordinates beyond
+#: :data:`FLOAT32_MAX` would be written as infinities.
+FLOAT32_FORMATS = (".stl", ".glb")
+FLOAT32_MAX = 3.4028234663852886e38
 
 
 def check_export_path(path: str | os.PathLike, formats: tuple[str, ...] = EXPORT_FORMATS) -> str:
@@ -35,3 +40,13 @@ def check_export_path(path: str | os.PathLike, formats: tuple[str, ...] = EXPORT
             f"use one of {', '.join(formats)}"
         )
     return suffix
+
+
+def check_coordinate_range(path: str | os.PathLike, largest: float) -> None:
+    """Refuse to write coordinates of magnitude ``largest`` to ``path`` where its format cannot hold them
+    (:data:`FLOAT32_FORMATS`)."""
+    suffix = Path(path).suffix.lower()
+    if suffix in FLOAT32_FORMATS and not largest <= FLOAT32_MAX:
+        raise ExportFormatError(
+            f"cannot write {path}: {suffix[1:].upper()} stores 32-bit floats (at most {FLOAT32_MAX:.3g}) and the "
+            f"coordinates reach {largest:.3g}; use .ply, .obj or .off")

@@ -85,12 +85,16 @@ def stored_data_mesh(surface: "SplineSurface") -> tuple[np.ndarray, np.ndarray] 
     """The fitted data mesh stored with a fit (``data_vertices`` + the surface's faces), if any.
 
     An approximation (``approx_scan_vertices`` in the file) has none: its corners' data vertices with
-    the coarse faces are not the scan it approximates (render it with ``--mesh`` the scan).
+    the coarse faces are not the scan it approximates (render it with ``--mesh`` the scan); nor has a file
+    whose ``data_vertices`` are malformed (not one finite row per vertex).
     """
     D = surface.extras.get("data_vertices")
     if D is None or "approx_scan_vertices" in surface.extras:  # an approximation: its data is the scan
         return None
-    D = np.asarray(D, np.float64)
-    if D.shape != (surface.n_vertices, 3):
+    try:
+        D = np.asarray(D, np.float64)
+    except (ValueError, TypeError):  # a malformed optional key (another writer's, an edited file): no data mesh
+        return None
+    if D.shape != (surface.n_vertices, 3) or not np.isfinite(D).all():
         return None
     return D, np.asarray(surface.faces, np.int64)

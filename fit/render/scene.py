@@ -136,8 +136,9 @@ def wrap_legend(lines: list[str] | tuple[str, ...], chars: float) -> str:
     return "\n".join(w for line in lines for w in textwrap.wrap(line, width, subsequent_indent="  "))
 
 
-def _fmt(x: float) -> str:
-    return f"{x:.3g}"
+def _fmt(x: float | None) -> str:
+    """``x`` to 3 digits; ``n/a`` where there is no finite value (a surface with no defined curvature)."""
+    return f"{x:.3g}" if x is not None and np.isfinite(x) else "n/a"
 
 
 def _symmetric_clim(values: np.ndarray, percentile: float) -> float:
@@ -243,7 +244,7 @@ def _deviation_mesh(surface: "SplineSurface", mesh: Any) -> tuple[np.ndarray, np
     data = as_mesh(mesh) if mesh is not None else stored_data_mesh(surface)
     if data is None:
         why = ("it approximates a scan: give that scan" if "approx_scan_vertices" in surface.extras
-               else "this surface file stores no data vertices")
+               else "this surface file stores no usable data vertices (none, or malformed)")
         raise RenderError(f"deviation needs a data mesh (--mesh DATA_MESH, or mesh=(V, F)); {why}")
     return data
 

@@ -22,6 +22,7 @@ at once, so the temporary files are deleted on the way out (SIGINT already raise
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import tempfile
@@ -92,7 +93,22 @@ def check_writable(target: str | os.PathLike, what: str = "") -> Path:
     effective = os.access in os.supports_effective_ids
     if not os.access(folder, os.W_OK | os.X_OK, effective_ids=effective):
         raise OutputError(f"cannot write {label}: folder {folder} is not writable")
+    _probe(folder, label)
     return path
+
+
+def _probe(folder: Path, label: str) -> None:
+    """Create and remove an empty file in ``folder``: permissions alone do not tell a read-only or
+    pseudo file system (``/proc``, a read-only mount seen by root), which would refuse the output
+    only after the work."""
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".trispline-probe-", dir=folder)
+    except OSError as exc:
+        raise OutputError(f"cannot write {label}: no file can be created in folder {folder} "
+                          f"({exc.strerror or exc})") from None
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        os.unlink(tmp)
 
 
 def _temp_for(path: Path) -> Path:

@@ -483,13 +483,14 @@ def test_demo_keeps_vertex_order(tmp_path):
     assert (d / "surface.png").read_bytes()[:4] == b"\x89PNG"
 
 
-def test_fit_that_does_not_converge_is_exit_1_and_writes_nothing(tmp_path):
+def test_fit_that_does_not_converge_is_exit_3_and_writes_nothing(tmp_path):
     # the default terms are quadratic and solved exactly by one step; the angle term is not
     r = run("fit", "--example", "--example-faces", "60", "--angle", "1", "--max-steps", "1", "-o", tmp_path / "s.npz",
             "--mesh-out", tmp_path / "s.obj")
-    assert r.returncode == 1, (r.stdout, r.stderr)
+    assert r.returncode == 3, (r.stdout, r.stderr)
     lines = r.stderr.strip().splitlines()
-    assert lines[-1].startswith("trispline: error: the fit did not converge"), r.stderr
+    assert lines[-1].startswith("trispline: error: the fit did not converge in 1 Gauss-Newton steps (--max-steps 1)")
+    assert "throw=False" not in r.stderr  # the library's advice, not the command line's
     assert "Traceback" not in r.stderr and r.stdout == ""
     only_inputs(tmp_path)
 

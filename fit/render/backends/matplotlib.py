@@ -43,7 +43,8 @@ def draw(scenes: Sequence[Scene], size: tuple[int, int], caption: str | None = N
     for col, sc in enumerate(scenes):
         _draw_scene(fig, sc, col, n, (w / n, h), caption is not None)
     if caption:
-        fig.text(0.995, 0.01, caption, ha="right", va="bottom", fontsize=_font((w / n, h)) * 0.62, color=CAPTION_RGB)
+        fig.text(0.995, 0.01, caption, ha="right", va="bottom", fontsize=_font((w / n, h)) * 0.62, color=CAPTION_RGB,
+                 parse_math=False)  # a user's text as written: a "$" starts no formula
     fig.canvas.draw()
     img = np.asarray(fig.canvas.buffer_rgba())[..., :3]
     return np.ascontiguousarray(img, dtype=np.uint8)
@@ -71,12 +72,12 @@ def _draw_scene(fig: "Figure", sc: Scene, col: int, n: int, sub: tuple[float, fl
     for layer in sc.layers:
         P = layer.points
         _draw_layer(ax, layer, np.column_stack([P @ screen[0], P @ screen[1], P @ screen[2]]), key)
-    ax.text(0.5, 0.985, sc.title, transform=ax.transAxes, ha="center", va="top", fontsize=font)
+    ax.text(0.5, 0.985, sc.title, transform=ax.transAxes, ha="center", va="top", fontsize=font, parse_math=False)
     if sc.legend:
         legend = sc.legend if sub[1] >= 300 else sc.legend[:1]
         rise = captioned * 1.5 * font * 0.62 / 72 * _DPI / sub[1]  # one text row, as a fraction of the height
         ax.text(0.01, 0.01 + rise, wrap_legend(legend, sub[0] / (0.6 * font * 0.62 * 1.39)), transform=ax.transAxes,
-                ha="left", va="bottom", fontsize=font * 0.62)
+                ha="left", va="bottom", fontsize=font * 0.62, parse_math=False)
     if sc.bar is not None:
         _colour_bar(fig, sc.bar, col, n, font)
 
