@@ -21,7 +21,7 @@ import numpy as np
 import optimistix as optx
 
 from trispline.param import DEFAULT_METHOD, face_aspects, hull_sliver_faces, refuse_slivers
-from trispline.spline.checks import as_array
+from trispline.spline.checks import as_array, callback, flag, whole_number
 from trispline.spline.continuity import continuity_report
 from trispline.spline.errors import InputError
 from trispline.spline.index import CORNER
@@ -122,6 +122,10 @@ def _domain(V: np.ndarray, F: np.ndarray, uv, param: str, report: Callable[[floa
     return p.uv, p.faces, p
 
 
+#: Most Gauss-Newton steps a fit may ask for (optimistix counts them in a 32-bit integer).
+MAX_STEPS = 1_000_000
+
+
 def fit_surface(
     V: np.ndarray,
     F: np.ndarray,
@@ -171,6 +175,10 @@ def fit_surface(
     require_x64()
     if not isinstance(weights, FitWeights):
         raise InputError(f"weights must be a FitWeights, got {type(weights).__name__}")
+    if solver is not None and not isinstance(solver, optx.AbstractLeastSquaresSolver):
+        raise InputError(f"solver must be an optimistix least-squares solver or None, got {type(solver).__name__}")
+    progress, throw = callback(progress, "progress"), flag(throw, "throw")
+    max_steps = whole_number(max_steps, "max_steps", least=1, most=MAX_STEPS)
     clock = StageTimer(progress)
     V, F = _check_mesh(V, F)
     check_fit_memory(F.shape[0])  # before the parameterization: at 1M faces it alone can take minutes

@@ -3,16 +3,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
+from trispline.spline.checks import real_number, whole_number
 from trispline.spline.errors import InputError
 
-__all__ = ["FitWeights", "TERM_WEIGHTS"]
+__all__ = ["FitWeights", "MAX_BLEND_POWER", "TERM_WEIGHTS"]
 
 #: The energy terms' weights, in the order of :data:`trispline.fit.energy.TERMS`.
 TERM_WEIGHTS = ("bend", "tilt", "local", "data", "angle")
 #: Largest term weight: only the weights' ratios matter, and the terms' sums overflow near 1e300.
 MAX_WEIGHT = 1e100
+#: Largest ``blend_power``: the blend's weights ``5^p`` overflow near p = 441, and far below that the blend
+#: is already a step at every corner.
+MAX_BLEND_POWER = 16.0
 
 
 @dataclass(frozen=True)
@@ -44,15 +46,15 @@ class FitWeights:
 
     def __post_init__(self) -> None:
         for name in TERM_WEIGHTS:
-            v = getattr(self, name)
-            if not (np.isfinite(v) and v >= 0):
-                raise InputError(f"weight {name} must be finite and >= 0, got {v}")
+            v = real_number(getattr(self, name), f"weight {name}", least=0.0)
+            object.__setattr__(self, name, v)
             if v > MAX_WEIGHT:
                 raise InputError(f"weight {name} is {v:g}, above {MAX_WEIGHT:g}: only the weights' ratios matter, "
                                  "so scale them all down")
         if self.bend <= 0 and self.local <= 0:
             raise InputError("at least one of the bend and local weights must be positive")
-        if self.fit_degree not in (2, 3):
-            raise InputError(f"fit_degree must be 2 or 3, got {self.fit_degree}")
-        if self.fit_rings < 1:
-            raise InputError(f"fit_rings must be >= 1, got {self.fit_rings}")
+        object.__setattr__(self, "fit_degree", whole_number(self.fit_degree, "fit_degree", least=2, most=3))
+        object.__setattr__(self, "fit_rings", whole_number(self.fit_rings, "fit_rings", least=1))
+        object.__setattr__(self, "blend_power", real_number(self.blend_power, "blend_power", least=0.0))
+        if self.blend_power > MAX_BLEND_POWER:
+            raise InputError(f"blend_power must be in [0, {MAX_BLEND_POWER:g}], got {self.blend_power:g}")

@@ -204,10 +204,12 @@ def score(summary: dict[str, Any]) -> float:
     return float(summary["angle_max"])
 
 
-def warning(summary: dict[str, Any], folds: int = 0, method: str | None = None) -> str | None:
+def warning(summary: dict[str, Any], folds: int = 0, method: str | None = None, repaired: str | None = None
+            ) -> str | None:
     """Why a map with this summary (and ``folds`` folded faces) deserves a warning, or None.
 
-    ``method`` (the map's) words the advice: another method only where one could help.
+    ``method`` (the map's) words the advice: another method only where one could help; ``repaired`` names the
+    map that replaced a folded one (SLIM's: suggesting it again would say nothing).
     """
     why = []
     if folds:
@@ -227,7 +229,7 @@ def warning(summary: dict[str, Any], folds: int = 0, method: str | None = None) 
     elif sheared and method == "uv":  # the user's own parameters: another map would change what is fitted
         advice = ("; the fit may spike there: the given uv is used as is (thin triangles: trispline info --repair; "
                   "or --param auto maps the mesh itself)")
-    elif sheared and method not in ("slim", "auto"):
+    elif sheared and method not in ("slim", "auto") and repaired != "slim":
         advice = "; the fit may spike there: try --param auto or --param slim"
     elif sheared:
         advice = "; the fit may spike there: check the mesh for slivers and folds (trispline info --repair)"

@@ -14,7 +14,10 @@ one behind it. The spacing is the smaller of the far corner's median edge and it
 second component of another scale keeps its outline, but a thin face along a long outline edge of a
 graded mesh's coarse part (a decimated terrain's flats) is peeled like a hull sliver. A face whose
 peeling would leave a vertex without faces stays (a sliver carries no point of its own): a coarse
-column of a graded grid along its rim loses one face at each end, not the column.
+column of a graded grid along its rim loses one face at each end, not the column. And a peel that would
+cut the surface in two peels nothing: the steep faces of a cliff across a height field (a step of 100
+spacings over one) are long and thin along the outline where the cliff meets it, and each peeled one
+exposes the next, across the whole mesh; hull slivers only ever line the rim.
 """
 from __future__ import annotations
 
@@ -72,6 +75,8 @@ def hull_sliver_faces(V: np.ndarray, F: np.ndarray, *, rounds: int = MAX_HULL_RO
         vertex_faces -= np.bincount(F[peeled].ravel(), minlength=V.shape[0])
     if out.sum() > HULL_MAX_SHARE * nf:
         out[:] = False
+    if out.any() and vertex_components(F[~out], V.shape[0])[0] > vertex_components(F, V.shape[0])[0]:
+        out[:] = False  # the peel cut through the surface: a cliff of a height field, not a hull
     return out
 
 

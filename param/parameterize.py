@@ -248,7 +248,7 @@ def _single(vm: ValidatedMesh, method: str, uv: np.ndarray | None, repair: bool,
         uv=uvn, faces=vm.F, method=method, boundary=boundary,
         transform=UVTransform(centre=centre, scale=scale, mirrored=mirrored),
         distortion=dist, repaired=repaired, messages=messages, report=vm.report,
-        warning=warning(dist, sum(folds), method), source_uv=source_uv, smoothing=smoothing,
+        warning=warning(dist, sum(folds), method, repaired), source_uv=source_uv, smoothing=smoothing,
     )
 
 

@@ -66,8 +66,9 @@ def face_aspects(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     V = np.column_stack([V, np.zeros(len(V))]) if V.shape[1] == 2 else V
     P = V[F]  # (nf, 3, 3)
     longest = (np.diff(P[:, [0, 1, 2, 0]], axis=1) ** 2).sum(2).max(1)  # squared
-    with np.errstate(divide="ignore"):
-        return longest / (2.0 * face_areas_3d(V, F))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        aspect = longest / (2.0 * face_areas_3d(V, F))
+    return np.where(np.isnan(aspect), np.inf, aspect)  # 0 / 0: a face collapsed to a point
 
 
 def sliver_message(points: np.ndarray, faces: np.ndarray) -> str | None:
@@ -265,7 +266,10 @@ def _check_ids(V: np.ndarray, F: np.ndarray, ids: np.ndarray) -> None:
     problems: list[tuple[str, str]] = []
     out = np.flatnonzero(((F < 0) | (F >= nv)).any(1))
     if out.size:
-        problems.append(("vertex_id_range", f"faces with vertex ids outside [0, {nv}): {first_few(out)}"))
+        wrong = F[out][(F[out] < 0) | (F[out] >= nv)][:5]
+        problems.append(("vertex_id_range", f"faces with vertex ids outside [0, {nv}): {first_few(out)}; the ids "
+                         + ", ".join(str(int(v)) for v in wrong) + (", ..." if wrong.size < ((F < 0) | (F >= nv)).sum()
+                                                                     else "")))
     rep = np.flatnonzero(repeated_vertex_faces(F))
     if rep.size:
         problems.append(("repeated_vertex_id", f"faces with a repeated vertex id: {first_few(rep)}"))

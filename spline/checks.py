@@ -3,13 +3,14 @@
     uv = as_array(uv, "uv", ("V", 2))                   # float64, shape (V, 2), any V
     faces = as_array(faces, "faces", ("F", 3), integer=True, min_rows=1)
     check_ids(faces, "faces", uv.shape[0])              # every id in [0, V)
+    k = whole_number(resolution, "resolution", least=1)  # scalars too: real_number, flag, callback
 
 Every failure raises :class:`~trispline.spline.errors.InputError` (or the subclass
 passed as ``error``) naming the argument, the expected shape or dtype and what was given.
 """
 from __future__ import annotations
 
-from typing import Sequence, Union
+from typing import Any, Sequence, Union
 
 import numpy as np
 
@@ -63,7 +64,68 @@ def check_ids(ids: np.ndarray, name: str, n: int, *, error: type[InputError] = I
     """Refuse ids outside ``[0, n)`` in ``ids: (k,)`` or ``(k, m)`` (rows named); returns ``ids``."""
     if ids.size == 0 or (ids.min() >= 0 and ids.max() < n):  # the usual case: two reductions, no masks
         return ids
-    bad = np.flatnonzero((ids < 0) | (ids >= n)) if ids.ndim == 1 else np.flatnonzero(((ids < 0) | (ids >= n)).any(1))
+    out = (ids < 0) | (ids >= n)
+    bad = np.flatnonzero(out) if ids.ndim == 1 else np.flatnonzero(out.any(1))
     if bad.size:
-        raise error(f"{name} refer to ids outside [0, {n}): {first_few(bad)}")
+        values = ids[out][:5]
+        raise error(f"{name} refer to ids outside [0, {n}): {', '.join(str(int(v)) for v in values)}"
+                    f"{', ...' if out.sum() > values.size else ''} (row{'s' if bad.size > 1 else ''} "
+                    f"{', '.join(str(int(r)) for r in bad[:5])}{', ...' if bad.size > 5 else ''})")
     return ids
+
+
+def real_number(v: Any, name: str, *, least: float | None = None, positive: bool = False,
+                error: type[InputError] = InputError) -> float:
+    """``v`` as a finite float: a real scalar (not a bool, a string, a complex or an array), at least ``least``
+    and, with ``positive``, above 0."""
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise error(f"{name} must be a real number, got {v!r}")
+    x = float(v)
+    if not np.isfinite(x) or (least is not None and x < least) or (positive and x <= 0):
+        bound = " > 0" if positive else f" >= {least:g}" if least is not None else ""
+        raise error(f"{name} must be a finite number{bound}, got {v!r}")
+    return x
+
+
+def whole_number(v: Any, name: str, *, least: int | None = None, most: int | None = None,
+                 error: type[InputError] = InputError) -> int:
+    """``v`` as an int: an integer scalar or a float with a whole value (not a bool or a string), within
+    ``[least, most]``."""
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)) \
+            or (isinstance(v, (float, np.floating)) and (not np.isfinite(v) or int(v) != v)):
+        raise error(f"{name} must be an integer, got {v!r}")
+    k = int(v)
+    if (least is not None and k < least) or (most is not None and k > most):
+        span = (f">= {least}" if most is None else f"<= {most}" if least is None else f"in [{least}, {most}]")
+        raise error(f"{name} must be an integer {span}, got {v!r}")
+    return k
+
+
+def flag(v: Any, name: str, *, error: type[InputError] = InputError) -> bool:
+    """``v`` as a bool: only True or False (a string such as ``"no"`` would read as true)."""
+    if not isinstance(v, (bool, np.bool_)):
+        raise error(f"{name} must be True or False, got {v!r}")
+    return bool(v)
+
+
+def callback(v: Any, name: str, *, error: type[InputError] = InputError) -> Any:
+    """``v`` if it is None or callable."""
+    if v is not None and not callable(v):
+        raise error(f"{name} must be a function or None, got {type(v).__name__}")
+    return v
+
+
+#: Barycentric coordinates whose sum is further from 1 than this (relative to their size) are refused: the
+#: patch's Bernstein basis is homogeneous of degree 5, so coordinates summing to 1.5 gave points 1.5^5 times
+#: too far from the origin without a word.
+BARY_SUM_TOL = 1e-8
+
+
+def check_bary(bary: np.ndarray, name: str, *, error: type[InputError] = InputError) -> np.ndarray:
+    """Refuse rows of ``bary (n, 3)`` (finite floats) that do not sum to 1; returns ``bary``."""
+    off = np.abs(bary.sum(1) - 1.0) > BARY_SUM_TOL * np.maximum(1.0, np.abs(bary).max(1, initial=0.0))
+    if off.any():
+        k = int(np.argmax(off))
+        raise error(f"{name} rows must sum to 1 (barycentric coordinates): {int(off.sum())} do not, row {k} "
+                    f"sums to {bary[k].sum():.6g}")
+    return bary

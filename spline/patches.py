@@ -26,7 +26,7 @@ import scipy.sparse as sp
 from .util import gather as _gather, memory as _memory, parallel as _parallel
 from .index import NCTRL, lattice
 from .bernstein import basis, basis_gradient_bary, basis_of_degree, derivative_nets
-from .checks import as_array, check_ids
+from .checks import as_array, check_bary, check_ids, flag, whole_number
 from .errors import InputError
 from .topology import Triangulation, face_bary_gradients
 
@@ -64,7 +64,7 @@ def check_ctrl(faces: np.ndarray, ctrl: np.ndarray) -> np.ndarray:
 def _check_queries(nf: int, face_idx: np.ndarray, bary: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``face_idx: (n,)`` int64 ids of the ``nf`` faces and ``bary: (n, 3)`` float64, validated."""
     face_idx = check_ids(as_array(face_idx, "face_idx", (None,), integer=True, whole_floats=False), "face_idx", nf)
-    return face_idx, as_array(bary, "bary", (face_idx.shape[0], 3), finite=True)
+    return face_idx, check_bary(as_array(bary, "bary", (face_idx.shape[0], 3), finite=True), "bary")
 
 
 def evaluate(
@@ -129,6 +129,7 @@ def evaluate_derivatives(
     PatchDerivatives with ``(n, d)`` arrays.
     """
     ctrl = check_ctrl(faces, ctrl)
+    second = flag(second, "second")
     face_idx, bary = _check_queries(ctrl.shape[0], face_idx, bary)
     n, d = face_idx.shape[0], ctrl.shape[2]
     faces = np.asarray(faces)
@@ -269,8 +270,7 @@ def numeric_continuity(
     """
     tri = Triangulation(uv, faces)
     ctrl = check_ctrl(tri.faces, ctrl)
-    if n_samples < 2:
-        raise InputError(f"n_samples must be >= 2, got {n_samples}")
+    n_samples = whole_number(n_samples, "n_samples", least=2)
     ie = tri.interior_edges
     _memory.require_memory(ie.size * n_samples * 2 * 20 * 8,
                            f"sampling {ie.size} edges at {n_samples} points each", "use fewer samples")

@@ -29,7 +29,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .bernstein import bary_grid, basis, basis_gradient_bary
-from .errors import InputError
+from .checks import whole_number
 from .index import CORNER, NCTRL, STAR, lattice, lattice_triangles
 from .patches import check_ctrl
 from .topology import Triangulation
@@ -69,7 +69,7 @@ def require_tessellation_memory(n_vertices: int, n_edges: int, n_faces: int, res
                                 ) -> tuple[int, int]:
     """:func:`tessellation_counts`, after refusing (``ResourceError``) a tessellation whose arrays
     would not fit in the available memory; callers may ask before the surface exists."""
-    r = int(resolution)
+    r = whole_number(resolution, "resolution", least=1)
     m, nt = tessellation_counts(n_vertices, n_edges, n_faces, r)
     _memory.require_memory(m * (dim + 5) * 8 + nt * 3 * np.dtype(_memory.index_dtype(m)).itemsize,
                            f"tessellating {n_faces} patches at resolution {r} ({m} points, {nt} triangles)",
@@ -214,9 +214,7 @@ def tessellate(
     Tessellation(vertices (m, d), triangles (r^2 F, 3), normals (m, 3), uv (m, 2)) with
     ``m = V + (r-1) E + (r-1)(r-2)/2 F``. Normals are ``(m, 0)`` when ``d != 3``.
     """
-    r = int(resolution)
-    if r < 1 or r != resolution:
-        raise InputError(f"resolution must be an integer >= 1, got {resolution}")
+    r = whole_number(resolution, "resolution", least=1)
     tri = triangulation if triangulation is not None else Triangulation(uv, faces)
     ctrl = check_ctrl(tri.faces, ctrl)
     d, nf = ctrl.shape[2], tri.n_faces

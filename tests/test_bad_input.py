@@ -1216,3 +1216,53 @@ def test_a_given_uv_that_folds_is_not_called_used_as_is(tmp_path, capsys):
     assert r.rc == 0, r.err
     assert "used as is" not in r.err
     assert "not that uv" in r.err
+
+
+def _height_grid(path: Path, n: int, z, *, pull: float = 0.0, seed: int = 0) -> Path:
+    """An ``n x n`` grid height field ``z(x, y)`` as OBJ; with ``pull``, a fifth of the inner points moved to
+    within ``pull`` of a cell's edge (slivers)."""
+    t = np.linspace(0.0, 1.0, n + 1)
+    x, y = (a.ravel() for a in np.meshgrid(t, t, indexing="ij"))
+    inner = (x > 0) & (x < 1) & (y > 0) & (y < 1)
+    moved = inner & (np.random.default_rng(seed).random(x.size) < 0.2)
+    x = np.where(moved, x + 0.5 / n - pull, x)  # half a cell over, stopping ``pull`` short of the next line
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(n), np.arange(n), indexing="ij"))
+    a, b, c, d = i * (n + 1) + j, (i + 1) * (n + 1) + j, (i + 1) * (n + 1) + j + 1, i * (n + 1) + j + 1
+    F = np.stack([np.column_stack([a, b, c]), np.column_stack([a, c, d])], 1).reshape(-1, 3)
+    trimesh.Trimesh(np.column_stack([x, y, z(x, y)]), F, process=False).export(path)
+    return path
+
+
+def test_a_cliff_is_no_hull_and_no_fold(tmp_path, capsys):
+    """A height field with a step of 1 over one cell: its steep faces, long and thin where the cliff meets the
+    outline, were peeled as hull slivers one behind the other across the mesh, and --repair then kept one half
+    (exit 0); its 90-degree creases were called folds, with --repair advised."""
+    mesh = _height_grid(tmp_path / "cliff.obj", 40, lambda x, y: 0.1 * np.sin(3 * x) * y + (x > 0.5))
+    md = read_mesh(mesh)
+    from trispline.param import hull_sliver_faces
+
+    assert not hull_sliver_faces(md.V, md.F).any()
+    r = cli(capsys, "fit", mesh, "-o", tmp_path / "s.npz")
+    assert r.rc == 0, r.err
+    assert "hull slivers" not in r.err and "folds over" not in r.err and "--repair" not in r.err
+    r = cli(capsys, "fit", mesh, "-o", tmp_path / "r.npz", "--repair", "--json", "-q")
+    assert r.rc == 0, r.err  # asked for, the repair still cuts the steepest faces as flaps (a crease past 90
+    assert "connected components" not in r.err  # degrees), but the surface stays whole: no half dropped
+    assert SplineSurface.load(tmp_path / "r.npz").n_faces >= 0.95 * len(md.F)
+
+
+def test_check_passes_what_fit_wrote_over_slivers(tmp_path, capsys):
+    """Grid points 1e-4 of a cell from an edge: the stored net was C1 to 2.6e-15, but the sampled gradients
+    (divided by the slivers' heights) jumped by 2.2e-9 > 1e-9 and check failed; its rounding floor now counts
+    the domain's aspect."""
+    mesh = _height_grid(tmp_path / "slivers.obj", 30, lambda x, y: 0.1 * np.sin(3 * x) * np.cos(2 * y), pull=1e-4)
+    assert cli(capsys, "fit", mesh, "-o", tmp_path / "s.npz", "-q").rc == 0
+    r = cli(capsys, "check", tmp_path / "s.npz", "--json")
+    d = json.loads(r.out)
+    assert r.rc == 0, (d["relative_residuals"], d["precision_floor"])
+    assert d["relative_residuals"]["c1_algebraic"] < 1e-13
+    surface = SplineSurface.load(tmp_path / "s.npz")
+    broken = surface.ctrl.copy()
+    broken[0, 10] += 1e-6  # an inner point of one patch: its C1 across edges breaks
+    SplineSurface(surface.uv, surface.faces, broken).save(tmp_path / "b.npz")
+    assert cli(capsys, "check", tmp_path / "b.npz", "-q").rc == 3

@@ -29,7 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from trispline.param import DEFAULT_METHOD, face_areas_3d, hull_sliver_faces
-from trispline.spline.checks import as_array
+from trispline.spline.checks import as_array, callback, check_ids, flag, real_number, whole_number
 from trispline.spline.continuity import continuity_report
 from trispline.spline.errors import InputError, first_few
 from trispline.spline.index import CORNER
@@ -243,21 +243,18 @@ def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corn
     """Check every option (clear messages naming the bad value) and derive the budget."""
     if tolerance is not None and tolerance_rel is not None:
         raise InputError("give tolerance (model units) or tolerance_rel (of the diagonal), not both")
-    for name, v in (("tolerance", tolerance), ("tolerance_rel", tolerance_rel)):
-        if v is not None and not (np.isfinite(v) and v > 0):
-            raise InputError(f"{name} must be finite and > 0, got {v}")
+    tolerance, tolerance_rel = (None if v is None else real_number(v, name, positive=True)
+                                for name, v in (("tolerance", tolerance), ("tolerance_rel", tolerance_rel)))
     tol = tolerance if tolerance_rel is None else tolerance_rel * diagonal
-    if n_vertices is not None and not (int(n_vertices) == n_vertices and 3 <= n_vertices):
-        raise InputError(f"n_vertices must be an integer >= 3, got {n_vertices}")
+    if n_vertices is not None:
+        n_vertices = whole_number(n_vertices, "n_vertices", least=3)
     if corners not in CORNER_MODES:
         raise InputError(f"corners must be one of {', '.join(CORNER_MODES)}, got {corners!r}")
     if loss not in LOSS_NAMES:
         raise InputError(f"loss must be one of {', '.join(LOSS_NAMES)}, got {loss!r}")
     if weights is not None and not isinstance(weights, FitWeights):
         raise InputError(f"weights must be a FitWeights or None, got {type(weights).__name__}")
-    if isinstance(fill_holes, bool) or not (int(fill_holes) == fill_holes and fill_holes >= 0):
-        raise InputError(f"fill_holes must be an integer >= 0 (the most vertices around a hole to span), got "
-                         f"{fill_holes!r}")
+    fill_holes = whole_number(fill_holes, "fill_holes (the most vertices around a hole to span)", least=0)
     if n_vertices is not None:
         budget = int(n_vertices)
     else:
@@ -494,10 +491,16 @@ def approximate_surface(
     F_in = np.asarray(F)
     if F_in.size and not np.issubdtype(F_in.dtype, np.integer):
         raise InputError(f"F must be integers, got dtype {F_in.dtype}")
-    F = as_array(F_in, "F", (None, 3), integer=True, min_rows=1)
+    F = check_ids(as_array(F_in, "F", (None, 3), integer=True, min_rows=1), "F", V.shape[0])
+    progress = callback(progress, "progress")
+    max_rounds = whole_number(max_rounds, "max_rounds", least=1)
+    outline_tolerance = flag(outline_tolerance, "outline_tolerance")
     diagonal = float(np.linalg.norm(V.max(0) - V.min(0)))
     opt = _options(V.shape[0], diagonal, tolerance, tolerance_rel, n_vertices, corners, loss, weights,
                    outline_tolerance, fill_holes)
+    if opt.fill_holes and uv is not None:
+        raise InputError("fill_holes spans holes before the map is made: not with a given uv (fill the mesh's holes "
+                         "and their uv yourself, or leave uv to the fit)")
     opt, notes = _memory_budget(opt, F.shape[0])
     clock = StageTimer(None)
     report = progress or (lambda stage, info: None)

@@ -92,15 +92,20 @@ def _centre(pts: np.ndarray) -> np.ndarray:
 def _precision_floor(surface: Any, samples: int, alg: dict, num: dict) -> dict[str, float]:
     """The relative residuals that rounding the stored coordinates alone makes: those of a random
     perturbation of half an ulp per coordinate, over the surface's own scales (``alg`` and
-    ``num``: its algebraic and sampled reports). Zeros when the coordinates are finer than the
-    tolerances could notice (data near the origin)."""
+    ``num``: its algebraic and sampled reports). Zeros when the coordinates, times the domain's worst
+    triangle aspect, are finer than the tolerances could notice (data near the origin, no slivers)."""
     from trispline.spline.continuity import continuity_report
     from trispline.spline.patches import numeric_continuity
+
+    from trispline.param.validate import face_aspects
 
     ctrl = np.asarray(surface.ctrl)
     keys = ("c0_algebraic", "c1_algebraic", "c0_sampled", "c1_sampled")
     scale = max(alg["scale"], 1e-300)
-    if ctrl.size == 0 or np.finfo(float).eps * np.abs(ctrl).max() / scale < FLOOR_NEGLIGIBLE:
+    # the sampled gradients divide by the domain triangles' heights: rounding grows with their aspect
+    # (a grid whose points sit 1e-4 of a cell from an edge: c1_sampled 2.2e-9 with the stored net exactly C1)
+    aspect = float(face_aspects(surface.uv, surface.faces).max()) if ctrl.size else 1.0
+    if ctrl.size == 0 or np.finfo(float).eps * np.abs(ctrl).max() / scale * aspect < FLOOR_NEGLIGIBLE:
         return dict.fromkeys(keys, 0.0)
     rng = np.random.default_rng(0)
     delta = (rng.random(ctrl.shape) - 0.5) * np.spacing(np.abs(ctrl))
@@ -208,7 +213,9 @@ def _check_text(d: dict) -> str:
                          + (" (held to the tolerance)" if a.get("outline_tolerance") else ""))
     fl = d["precision_floor"]
     if any(fl.values()):
-        lines.append(f"  far from the origin (centre {np.round(d['centre'], 3).tolist()}): the stored coordinates' "
+        where = (f"far from the origin (centre {np.round(d['centre'], 3).tolist()})" if np.any(d["centre"])
+                 else "over thin domain triangles")
+        lines.append(f"  {where}: the stored coordinates' "
                      f"rounding alone makes c1_algebraic {fmt(fl['c1_algebraic'])}, c1_sampled "
                      f"{fmt(fl['c1_sampled'])}; allowed: tolerance + {PRECISION_MARGIN:g} x that")
     verdict = ("OK: C1 within tolerance" if d["ok"]

@@ -32,7 +32,7 @@ from trispline.spline.tolerances import FAR_PRECISION
 
 from ..errors import FitError, ResultRejected, UsageError
 from ..stages import FIT_STAGES
-from ..weights import FitWeights
+from ..weights import MAX_BLEND_POWER, FitWeights
 from . import approximate
 from .common import (
     EXIT_OK, UI, add_common, check_output, distinct, fmt, int_at_least, nonneg_float, positive_int, prefetch,
@@ -61,9 +61,6 @@ WEIGHT_FIELDS: tuple[tuple[str, type], ...] = tuple(
 #: ``--fit-rings`` above this is refused: the local fits' neighbourhoods grow with its square
 #: (1000 rings on a 9k-face mesh ran for minutes), and beyond a few rings they stop being local.
 MAX_FIT_RINGS = 6
-#: ``--blend-power`` above this is refused: the blend's weights ``5^p`` overflow near p = 441,
-#: and far below that the blend is already a step at every corner.
-MAX_BLEND_POWER = 16.0
 #: The meaning of each weight flag, as ``--help`` says it (docs/fit.md has the details).
 WEIGHT_HELP = {
     "bend": "thin-plate bending over the domain: smooths the surface between the vertices",
@@ -398,10 +395,14 @@ def _warn_folds(ui: UI, V: np.ndarray, F: np.ndarray) -> None:
     from trispline.param.inspect import fold_report
 
     folds = fold_report(V, F)
-    if folds["folded_edges"]:
+    if folds["folded_edges"] and folds["flaps"]:
         ui.warn(f"the mesh folds over at {folds['folded_edges']} edges (adjacent faces up to "
                 f"{folds['worst_fold_degrees']:.0f} degrees apart): the surface may spike there; use --repair "
                 "to cut folded flaps")
+    elif folds["folded_edges"]:  # sharp creases: cutting faces off them would change the data
+        ui.warn(f"the mesh has {folds['folded_edges']} creases sharper than a right angle (adjacent faces up to "
+                f"{folds['worst_fold_degrees']:.0f} degrees apart): an interpolating surface overshoots there; "
+                "an approximation (--tolerance-rel) rounds them")
 
 
 def _warn_hull(ui: UI, V: np.ndarray, F: np.ndarray) -> None:

@@ -73,7 +73,8 @@ def _info_text(d: dict) -> str:
         f"  texture coordinates (vt): {'yes' if d.get('has_uv') else 'no'}"
         + (f" (not usable by --param uv: {d['uv_note']})" if d.get("uv_note") else ""),
         f"  folded edges (adjacent faces more than 90 degrees apart) {d['folded_edges']}"
-        + (f", worst {d['worst_fold_degrees']:.0f} degrees (fit --repair cuts folded flaps)"
+        + (f", worst {d['worst_fold_degrees']:.0f} degrees ("
+           + ("fit --repair cuts folded flaps)" if d.get("flaps") else "sharp creases, not flaps)")
            if d["folded_edges"] else ""),
         f"  hull slivers on the outline {d['hull_slivers']}"
         + (f", longest outline edge {d['longest_outline_edge']:.3g} x the median edge (fit --repair peels them)"

@@ -13,7 +13,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from trispline.spline.bernstein import PRODUCT_MONOMIALS, basis, gram_from_moments, product_monomials
-from trispline.spline.checks import as_array, check_ids
+from trispline.spline.checks import as_array, check_bary, check_ids
 from trispline.spline.errors import InputError
 from trispline.spline.index import NCTRL
 
@@ -61,7 +61,7 @@ def as_data_points(data_points, n_faces: int) -> DataPoints:
     if np.shape(bary) != (n, 3) or np.shape(xyz) != (n, 3):
         raise InputError(f"data_points bary and xyz must have shape ({n}, 3), got {np.shape(bary)} and {np.shape(xyz)}")
     check_ids(face, "data_points face", n_faces)
-    return DataPoints(face, as_array(bary, "data_points bary", (n, 3), finite=True),
+    return DataPoints(face, check_bary(as_array(bary, "data_points bary", (n, 3), finite=True), "data_points bary"),
                       as_array(xyz, "data_points xyz", (n, 3), finite=True))
 
 

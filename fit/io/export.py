@@ -32,6 +32,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from trispline.spline.checks import as_array, check_ids, flag, whole_number
+from trispline.spline.errors import InputError
 from trispline.spline.index import DEGREE, EXPONENTS, NCTRL, lattice_triangles
 from trispline.spline.tessellate import Tessellation, require_tessellation_memory
 from trispline.spline.util.atomic import AtomicOutputs, write_with
@@ -126,6 +128,26 @@ def control_net_mesh(surface: "SplineSurface") -> "trimesh.Trimesh":
 
 
 # ------------------------------------------------------------------------ writers
+def _path(path: Any) -> str | os.PathLike:
+    """``path`` if it is a str or an ``os.PathLike``, else InputError."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(f"the output path must be a str or os.PathLike, got {type(path).__name__}")
+    return path
+
+
+def _check_picture_options(options: dict[str, Any]) -> None:
+    """Refuse picture options :func:`trispline.fit.render.draw` does not take (named, not a TypeError)."""
+    import inspect
+
+    from .. import render
+
+    known = set(inspect.signature(render.draw).parameters) - {"surface", "resolution"}
+    unknown = sorted(set(options) - known)
+    if unknown:
+        raise InputError(f"unknown picture option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; "
+                         f"known: {', '.join(sorted(known))}")
+
+
 def _largest(points: np.ndarray) -> float:
     """The largest coordinate magnitude of ``points (..., 3)`` (0 for none)."""
     a = np.asarray(points)
@@ -184,9 +206,13 @@ def export_mesh(
 ) -> Path:
     """Write a plain triangle mesh ``V (nv, 3)``, ``F (nf, 3)`` (optional ``normals (nv, 3)``)
     to OBJ/PLY/STL/GLB/OFF atomically, vertex order kept."""
-    suffix = check_export_path(path, MESH_FORMATS)
+    suffix = check_export_path(_path(path), MESH_FORMATS)
+    V = as_array(V, "V", (None, 3), finite=True)
+    F = check_ids(as_array(F, "F", (None, 3), integer=True, whole_floats=False), "F", V.shape[0])
+    if normals is not None:
+        normals = as_array(normals, "normals", (V.shape[0], 3), finite=True)
     check_coordinate_range(path, _largest(V))
-    mesh = _trimesh(np.asarray(V, float), np.asarray(F, np.int64), normals)
+    mesh = _trimesh(V, F, normals)
     return write_with(path, lambda tmp: _write_mesh(mesh, tmp, suffix, normals is not None), outputs)
 
 
@@ -210,7 +236,16 @@ def export_surface(
     With ``outputs`` the file joins that group (committed by the caller), otherwise
     it is written atomically on its own.
     """
-    suffix = check_export_path(path)
+    from trispline.spline.surface import SplineSurface
+
+    if not isinstance(surface, SplineSurface):
+        raise InputError(f"surface must be a SplineSurface, got {type(surface).__name__}")
+    suffix = check_export_path(_path(path))
+    if resolution is not None:
+        resolution = whole_number(resolution, "resolution", least=1)
+    merge = flag(merge, "merge")
+    if suffix in IMAGE_FORMATS:
+        _check_picture_options(image_options)
     if suffix in MESH_FORMATS:
         check_coordinate_range(path, _largest(surface.ctrl))  # the surface lies in its control points' hull
         r = export_resolution(surface.n_faces) if resolution is None else int(resolution)
@@ -242,7 +277,7 @@ def export_control_net(
 ) -> Path:
     """Write the control net: a triangle mesh (OBJ/PLY/STL/GLB/OFF) or, with ``lines=True``,
     its points and line segments as an OBJ file (``v`` and ``l`` records)."""
-    suffix = check_export_path(path, (".obj",) if lines else MESH_FORMATS)
+    suffix = check_export_path(_path(path), (".obj",) if lines else MESH_FORMATS)
     if lines:
         points, _, segments = control_net(surface)
         return write_with(path, lambda tmp: _write_obj_lines(points, segments, tmp), outputs)

@@ -102,7 +102,7 @@ def test_argument_errors():
         inspect_mesh(V, F.astype(float))
     bad = F.copy()
     bad[2, 1] = len(V)
-    with pytest.raises(InputError, match=r"F refer to ids outside \[0, \d+\): 1 \(first: 2\)"):
+    with pytest.raises(InputError, match=r"F refer to ids outside \[0, (\d+)\): \1 \(row 2\)"):
         inspect_mesh(V, bad)
 
 
