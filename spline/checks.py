@@ -82,8 +82,8 @@ def real_number(v: Any, name: str, *, least: float | None = None, positive: bool
         raise error(f"{name} must be a real number, got {v!r}")
     x = float(v)
     if not np.isfinite(x) or (least is not None and x < least) or (positive and x <= 0):
-        bound = " > 0" if positive else f" >= {least:g}" if least is not None else ""
-        raise error(f"{name} must be a finite number{bound}, got {v!r}")
+        bound = " and > 0" if positive else f" and >= {least:g}" if least is not None else ""
+        raise error(f"{name} must be finite{bound}, got {x!r}")
     return x
 
 
@@ -91,13 +91,14 @@ def whole_number(v: Any, name: str, *, least: int | None = None, most: int | Non
                  error: type[InputError] = InputError) -> int:
     """``v`` as an int: an integer scalar or a float with a whole value (not a bool or a string), within
     ``[least, most]``."""
+    span = ("" if least is None and most is None else f" >= {least}" if most is None
+            else f" <= {most}" if least is None else f" in [{least}, {most}]")
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)) \
             or (isinstance(v, (float, np.floating)) and (not np.isfinite(v) or int(v) != v)):
-        raise error(f"{name} must be an integer, got {v!r}")
+        raise error(f"{name} must be an integer{span}, got {v!r}")
     k = int(v)
     if (least is not None and k < least) or (most is not None and k > most):
-        span = (f">= {least}" if most is None else f"<= {most}" if least is None else f"in [{least}, {most}]")
-        raise error(f"{name} must be an integer {span}, got {v!r}")
+        raise error(f"{name} must be an integer{span}, got {v!r}")
     return k
 
 

@@ -254,7 +254,7 @@ def _options(n: int, diagonal: float, tolerance, tolerance_rel, n_vertices, corn
         raise InputError(f"loss must be one of {', '.join(LOSS_NAMES)}, got {loss!r}")
     if weights is not None and not isinstance(weights, FitWeights):
         raise InputError(f"weights must be a FitWeights or None, got {type(weights).__name__}")
-    fill_holes = whole_number(fill_holes, "fill_holes (the most vertices around a hole to span)", least=0)
+    fill_holes = whole_number(fill_holes, "fill_holes", least=0)  # the most vertices around a hole to span
     if n_vertices is not None:
         budget = int(n_vertices)
     else:
@@ -498,9 +498,6 @@ def approximate_surface(
     diagonal = float(np.linalg.norm(V.max(0) - V.min(0)))
     opt = _options(V.shape[0], diagonal, tolerance, tolerance_rel, n_vertices, corners, loss, weights,
                    outline_tolerance, fill_holes)
-    if opt.fill_holes and uv is not None:
-        raise InputError("fill_holes spans holes before the map is made: not with a given uv (fill the mesh's holes "
-                         "and their uv yourself, or leave uv to the fit)")
     opt, notes = _memory_budget(opt, F.shape[0])
     clock = StageTimer(None)
     report = progress or (lambda stage, info: None)

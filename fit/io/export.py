@@ -141,7 +141,10 @@ def _check_picture_options(options: dict[str, Any]) -> None:
 
     from .. import render
 
-    known = set(inspect.signature(render.draw).parameters) - {"surface", "resolution"}
+    params = inspect.signature(render.draw).parameters
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        return  # a wrapper that takes anything: draw itself names what it does not take
+    known = set(params) - {"surface", "resolution"}
     unknown = sorted(set(options) - known)
     if unknown:
         raise InputError(f"unknown picture option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; "
