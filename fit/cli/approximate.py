@@ -211,7 +211,7 @@ def _gap_note(d: dict) -> str:
     if d["tolerance"] is None:
         return ""
     if d["outline_tolerance"]:
-        return " (held to the tolerance)"
+        return " (held to the tolerance)" if d["outline_gap"] <= d["tolerance"] else " (held to the tolerance: NOT met)"
     return " (beyond the tolerance: reported, not refined)" if d["outline_gap"] > d["tolerance"] else ""
 
 

@@ -210,7 +210,8 @@ def _check_text(d: dict) -> str:
                      + (f"; {a['holes_filled']} small holes of the scan spanned" if a.get("holes_filled") else "") + ")")
         if dev.get("outline_gap") is not None:
             lines.append(f"  the outline's largest gap to the scan {fmt(dev['outline_gap'])}"
-                         + (" (held to the tolerance)" if a.get("outline_tolerance") else ""))
+                         + ((" (held to the tolerance)" if a.get("tolerance") is None or dev["outline_gap"] <= a["tolerance"]
+                             else " (held to the tolerance: NOT met)") if a.get("outline_tolerance") else ""))
     fl = d["precision_floor"]
     if any(fl.values()):
         where = (f"far from the origin (centre {np.round(d['centre'], 3).tolist()})" if np.any(d["centre"])
