@@ -1266,3 +1266,22 @@ def test_check_passes_what_fit_wrote_over_slivers(tmp_path, capsys):
     broken[0, 10] += 1e-6  # an inner point of one patch: its C1 across edges breaks
     SplineSurface(surface.uv, surface.faces, broken).save(tmp_path / "b.npz")
     assert cli(capsys, "check", tmp_path / "b.npz", "-q").rc == 3
+
+
+def test_zebra_far_from_the_origin_keeps_its_stripes(tmp_path, capsys):
+    """A surface moved to UTM-like coordinates (5e5, 4e6) drew a blank zebra picture with exit 0: VTK's 32-bit
+    floats kept 0.25 m of the points and none of the stripes' texture coordinates."""
+    pytest.importorskip("pyvista")
+    from PIL import Image
+
+    s = random_c1_surface(60, holes=1, seed=0)
+    SplineSurface(s.uv, s.faces, s.ctrl).save(tmp_path / "here.npz")
+    SplineSurface(s.uv, s.faces, s.ctrl + [5e5, 4e6, 0.0]).save(tmp_path / "far.npz")
+    dark = {}
+    for name in ("here", "far"):
+        r = cli(capsys, "render", tmp_path / f"{name}.npz", "-o", tmp_path / f"{name}.png", "--mode", "zebra",
+                "--backend", "pyvista", "--caption", "", "-q")
+        assert r.rc == 0, r.err
+        img = np.asarray(Image.open(tmp_path / f"{name}.png").convert("L"), float)
+        dark[name] = float((img < 60).mean())
+    assert dark["here"] > 0.1 and abs(dark["far"] - dark["here"]) < 0.02, dark
