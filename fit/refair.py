@@ -31,7 +31,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse.linalg as spla
 
-from trispline.spline.checks import as_array
+from trispline.spline.checks import as_array, whole_number
 from trispline.spline.edit import EditResult, SplineEditor
 from trispline.spline.errors import InputError
 from trispline.spline.index import NCTRL
@@ -147,9 +147,7 @@ class LocalRefairer:
 
     @staticmethod
     def _check_rings(rings) -> int:
-        if not (np.ndim(rings) == 0 and float(rings) == int(rings) and int(rings) >= 1):
-            raise InputError(f"rings must be an integer >= 1, got {rings!r}")
-        return int(rings)
+        return whole_number(rings, "rings", least=1)
 
     def energy(self) -> dict[str, float]:
         """The global fairness energy of the current surface (``O(n)``; for checks)."""
@@ -163,8 +161,10 @@ class LocalRefairer:
         verts = np.array([ed.vertex_id(vertex)], np.int64)
         faces = ed.vertex_faces(verts)
         for _ in range(rings - 1):
-            verts = np.unique(ed.space.tri.faces[faces])
-            faces = ed.vertex_faces(verts)
+            grown = ed.vertex_faces(np.unique(ed.space.tri.faces[faces]))
+            if grown.size == faces.size:  # the region covers its component: more rings add nothing
+                break
+            faces = grown
         return faces, np.unique(ed.space.tri.faces[faces])
 
     def region_free(self, vertex: int, rings: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -182,12 +182,22 @@ class LocalRefairer:
     def move_vertex(self, vertex: int, xyz, rings: int | None = None) -> RefairResult:
         """Move data vertex ``vertex`` to ``xyz`` (the corner point follows exactly) and re-fair."""
         v = self.editor.vertex_id(vertex)
-        xyz = np.asarray(xyz, np.float64)
+        rings = self.rings if rings is None else self._check_rings(rings)
+        try:
+            xyz = np.asarray(xyz, np.float64)
+        except (TypeError, ValueError):
+            raise InputError(f"xyz must be 3 finite numbers, got {xyz!r}") from None
         if xyz.shape != (3,) or not np.isfinite(xyz).all():
             raise InputError(f"xyz must be 3 finite numbers, got {xyz!r}")
+        old = self.V[v].copy()
+        edit = self.editor.move_vertex(v, xyz, carry_frame=True)  # refuses a position beyond double precision
         self.V[v] = xyz
-        self.editor.move_vertex(v, xyz, carry_frame=True)
-        return self.refair(v, rings)
+        try:
+            return self.refair(v, rings)
+        except InputError:  # nothing half done: the vertex goes back where it was
+            self.V[v] = old
+            self.editor.move(edit.free_ids, edit.old_free)
+            raise
 
     def refair(self, vertex: int, rings: int | None = None) -> RefairResult:
         """Re-optimise the free points around ``vertex`` with everything else fixed."""

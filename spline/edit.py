@@ -44,10 +44,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .checks import as_array, check_ids
+from .checks import as_array, check_ids, real_number, whole_number
 from .errors import DependentPointError, InputError, NotC1Error, first_few
 from .propagation import KIND_FRAME, KIND_NAMES, SplineSpace
-from .tolerances import FROM_SURFACE_RTOL
+from .tolerances import FROM_SURFACE_RTOL, MAX_MAGNITUDE
 from .util import gather as _gather
 
 __all__ = ["SplineEditor", "EditResult", "DependentPointError", "NotC1Error"]
@@ -137,7 +137,11 @@ class SplineEditor:
         :class:`NotC1Error` (a C0-only or foreign net cannot be edited locally).
         """
         from .propagation import build_space
+        from .surface import SplineSurface
 
+        if not isinstance(surface, SplineSurface):
+            raise InputError(f"surface must be a SplineSurface, got {type(surface).__name__}")
+        rtol = real_number(rtol, "rtol", positive=True)
         if space is None:
             space = build_space(surface.uv, surface.faces)
         ctrl = as_array(surface.ctrl, "surface ctrl", space.point_index.shape + ("d",))
@@ -175,7 +179,9 @@ class SplineEditor:
 
     def patch_ctrl(self, faces: np.ndarray) -> np.ndarray:
         """``(n, 21, d)`` control points of the patches ``faces``."""
-        return self._points[self.space.point_index[np.asarray(faces, np.int64)]]
+        faces = check_ids(as_array(np.atleast_1d(faces), "faces", (None,), integer=True, whole_floats=False), "faces",
+                          self.space.tri.n_faces)
+        return self._points[self.space.point_index[faces]]
 
     def to_surface(self, **extras):
         """An immutable :class:`SplineSurface` of the current state (``free`` in its extras)."""
@@ -209,17 +215,14 @@ class SplineEditor:
 
     def mid_point(self, edge: int, end: int) -> int:
         """Free id of edge ``edge``'s middle point nearer its end ``end`` (0: smaller vertex)."""
-        ne = self.space.tri.n_edges
-        if not (0 <= int(edge) < ne) or int(end) not in (0, 1):
-            raise InputError(f"edge must be in [0, {ne}) and end in (0, 1), got {edge}, {end}")
-        return self.point_free_id(int(self.space.layout.mid(int(edge), int(end))), strict=True)
+        edge = whole_number(edge, "edge", least=0, most=self.space.tri.n_edges - 1)
+        end = whole_number(end, "end", least=0, most=1)
+        return self.point_free_id(int(self.space.layout.mid(edge, end)), strict=True)
 
     def point_free_id(self, point: int, *, strict: bool = False) -> int:
         """Free id of global control point ``point``; ``-1`` if it is dependent
         (``strict=True``: raise :class:`DependentPointError` naming its controllers)."""
-        point = int(point)
-        if not 0 <= point < self.space.n_points:
-            raise InputError(f"control point id {point} outside [0, {self.space.n_points})")
+        point = whole_number(point, "control point id", least=0, most=self.space.n_points - 1)
         j = int(self._point_free[point])
         if j < 0 and strict:
             raise self._dependent_error(point)
@@ -281,7 +284,7 @@ class SplineEditor:
     def describe_point(self, point: int) -> str:
         """Human-readable name of global control point ``point``."""
         lay, t = self.space.layout, self.space.tri
-        p = int(point)
+        p = whole_number(point, "control point id", least=0, most=self.space.n_points - 1)
         if p < lay.star0:
             return f"corner point of vertex {p}"
         if p < lay.mid0:
@@ -324,6 +327,9 @@ class SplineEditor:
         ids = self._free_ids(free_ids)
         # one position (d,) reads as (1, d)
         pos = as_array(np.atleast_2d(positions), "positions", (ids.size, self._free.shape[1]), finite=True)
+        if pos.size and np.abs(pos).max() > MAX_MAGNITUDE:
+            raise InputError(f"positions reach {np.abs(pos).max():.3g}: beyond {MAX_MAGNITUDE:g} the surface's squares "
+                             "overflow double precision")
         old = self._free[ids]
         self._free[ids] = pos
         rows = self._column_rows(ids)
@@ -334,7 +340,11 @@ class SplineEditor:
     def translate(self, free_ids, delta) -> EditResult:
         """Move free points by ``delta`` ((d,) or (k, d))."""
         ids = self._free_ids(free_ids)
-        return self.move(ids, self._free[ids] + np.asarray(delta, np.float64))
+        d = self._free.shape[1]
+        delta = _real(delta, "delta")
+        if delta.shape not in ((d,), (ids.size, d)):
+            raise InputError(f"delta must have shape ({d},) or ({ids.size}, {d}), got {delta.shape}")
+        return self.move(ids, self._free[ids] + delta)
 
     def move_point(self, point_ids, positions) -> EditResult:
         """Move global control points that are free (corner, inner, flip, boundary points).
@@ -354,7 +364,7 @@ class SplineEditor:
         the corner region (the tangent plane at ``v``) is translated, not tilted.
         """
         v = self.vertex_id(v)
-        xyz = np.asarray(xyz, np.float64)
+        xyz = as_array(_real(xyz, "xyz"), "xyz", (self._free.shape[1],), finite=True)
         if not carry_frame:
             return self.move(self.space.corner_free[v], xyz)
         ids = np.array([self.space.corner_free[v], *self.space.frame_free[v]], np.int64)
@@ -364,17 +374,12 @@ class SplineEditor:
 
     def vertex_id(self, v) -> int:
         """``v`` as a vertex index, checked: an integer in ``[0, V)`` (else :class:`InputError`)."""
-        nv = self.space.tri.n_vertices
-        if not (np.ndim(v) == 0 and float(v) == int(v) and 0 <= int(v) < nv):
-            raise InputError(f"vertex must be an integer in [0, {nv}), got {v!r}")
-        return int(v)
+        return whole_number(v, "vertex", least=0, most=self.space.tri.n_vertices - 1)
 
     # --------------------------------------------------------------- internals
     def _face_local(self, face, k) -> tuple[int, int]:
-        nf = self.space.tri.n_faces
-        if not (np.ndim(face) == 0 and 0 <= int(face) < nf) or int(k) not in (0, 1, 2):
-            raise InputError(f"face must be in [0, {nf}) and the local index in (0, 1, 2), got {face}, {k}")
-        return int(face), int(k)
+        return (whole_number(face, "face", least=0, most=self.space.tri.n_faces - 1),
+                whole_number(k, "local index", least=0, most=2))
 
     def _free_ids(self, free_ids) -> np.ndarray:
         ids = as_array(np.atleast_1d(free_ids), "free ids", (None,), integer=True, whole_floats=False)
@@ -417,3 +422,11 @@ class SplineEditor:
             f"computes it from {ctl.size} free points: {names}{more}. Move one of those instead.",
             point, ctl,
         )
+
+
+def _real(values, name: str) -> np.ndarray:
+    """``values`` as a float array, or InputError naming ``name`` (strings, objects)."""
+    try:
+        return np.asarray(values, np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be real numbers, got {values!r}") from None

@@ -165,3 +165,73 @@ def test_no_advice_to_use_the_map_that_was_already_used():
 
 def test_genus_is_a_whole_number(disk):
     assert inspect_mesh(*disk)["genus"] == 0 and isinstance(inspect_mesh(*disk)["genus"], int)
+
+
+# ----------------------------------------------------------------- the local editor (fuzz round 3)
+@pytest.fixture()
+def editor():
+    from trispline.spline.edit import SplineEditor
+
+    return SplineEditor.from_surface(random_c1_surface(40, holes=1, seed=0))
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda ed: ed.inner_point(1.5, 0), "face must be an integer"),
+    (lambda ed: ed.inner_point(0, 1.7), "local index must be an integer"),
+    (lambda ed: ed.flip_point(0, float("nan")), "local index must be an integer"),
+    (lambda ed: ed.mid_point(1.5, 0), "edge must be an integer"),
+    (lambda ed: ed.mid_point(0, 0.5), "end must be an integer"),
+    (lambda ed: ed.point_free_id(1.5), "control point id must be an integer"),
+    (lambda ed: ed.point_free_id("x"), "control point id must be an integer"),
+    (lambda ed: ed.describe_point(-1), "control point id must be an integer"),
+    (lambda ed: ed.move_vertex("3", [0.0, 0.0, 0.0]), "vertex must be an integer"),
+    (lambda ed: ed.move_vertex(float("nan"), [0.0, 0.0, 0.0]), "vertex must be an integer"),
+    (lambda ed: ed.move_vertex(None, [0.0, 0.0, 0.0]), "vertex must be an integer"),
+    (lambda ed: ed.move_vertex(3, [1.0, 2.0]), "xyz must have shape"),
+    (lambda ed: ed.move_vertex(3, "abc"), "xyz must be real numbers"),
+    (lambda ed: ed.translate(3, [1.0, 2.0]), "delta must have shape"),
+    (lambda ed: ed.translate(3, "abc"), "delta must be real numbers"),
+    (lambda ed: ed.move(3, [1e300, 0.0, 0.0]), "overflow double precision"),
+    (lambda ed: ed.move_vertex(3, [1e308] * 3), "overflow double precision"),
+    (lambda ed: ed.patch_ctrl([-1]), "faces refer to ids outside"),
+    (lambda ed: ed.patch_ctrl([1.5]), "faces must hold integers"),
+])
+def test_editor_ids_and_positions(editor, call, match):
+    """Non-integer ids were truncated (inner_point(1.5, 0) was face 1's), huge positions left the net inf/NaN,
+    wrong shapes and strings ended in numpy's errors."""
+    before = editor.free.copy()
+    with pytest.raises(InputError, match=match):
+        call(editor)
+    np.testing.assert_array_equal(editor.free, before)  # a refused edit changes nothing
+
+
+@pytest.mark.parametrize("rtol, match", [(float("nan"), "rtol must be finite"), (-1.0, "rtol must be finite and > 0"),
+                                        ("1e-9", "rtol must be a real number")])
+def test_editor_from_surface_tolerance(rtol, match):
+    """rtol=nan accepted any net (err > nan is false) and replaced it by its projection without a word."""
+    from trispline.spline.edit import SplineEditor
+
+    with pytest.raises(InputError, match=match):
+        SplineEditor.from_surface(random_c1_surface(40, holes=1, seed=0), rtol=rtol)
+    with pytest.raises(InputError, match="surface must be a SplineSurface"):
+        SplineEditor.from_surface("x.npz")
+
+
+def test_refair_rings_are_checked_and_a_failed_move_is_undone():
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    from trispline.fit.refair import LocalRefairer
+
+    result = fit_surface(*bumpy_disk(300))
+    rf = LocalRefairer.from_fit(result, rings=2)
+    for rings in (float("nan"), "2", True, 0):
+        with pytest.raises(InputError, match="rings must be an integer"):
+            rf.move_vertex(5, rf.V[5], rings=rings)
+    faces, _ = rf.region(5, rings=10**9)  # grows until it covers the mesh, then stops (was a loop of 10^9 rings)
+    assert faces.size == len(result.faces)
+    V0, free0 = rf.V.copy(), rf.editor.free.copy()
+    with pytest.raises(InputError):
+        rf.move_vertex(5, [1e300, 0.0, 0.0])
+    np.testing.assert_array_equal(rf.V, V0)
+    np.testing.assert_array_equal(rf.editor.free, free0)

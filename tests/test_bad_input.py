@@ -1285,3 +1285,26 @@ def test_zebra_far_from_the_origin_keeps_its_stripes(tmp_path, capsys):
         img = np.asarray(Image.open(tmp_path / f"{name}.png").convert("L"), float)
         dark[name] = float((img < 60).mean())
     assert dark["here"] > 0.1 and abs(dark["far"] - dark["here"]) < 0.02, dark
+
+
+def test_pictures_and_exports_beyond_what_fits_are_refused_before_the_work(tmp_path, capsys, surface, monkeypatch):
+    """render --resolution 1000 of 152 patches ran out of 23 GB (the sampling's estimate left out the renderer);
+    export --resolution 1000 to OBJ needed ~80 GB (trimesh's text writer) against an estimate of 6.7 GB; demo
+    --example-faces 10000000 generated its scan for 161 s before refusing, and advised an option demo lacks."""
+    from trispline.spline.util import memory
+
+    surface.save(tmp_path / "s.npz")
+    n = surface.n_faces
+    r = cli(capsys, "render", tmp_path / "s.npz", "-o", tmp_path / "r.png", "--resolution", 1000)
+    assert_cli_error(r, f"draws {n * 1000 * 1000:,} triangles on a picture of 800 x 600 pixels")
+    assert cli(capsys, "render", tmp_path / "s.npz", "-o", tmp_path / "r.png", "--resolution", 16, "-q").rc == 0
+    monkeypatch.setattr(memory, "available_memory", lambda: 1 << 30)  # a 1 GiB machine
+    for suffix, ok in ((".ply", 60), (".obj", 30)):
+        t0 = time.perf_counter()
+        r = cli(capsys, "export", tmp_path / "s.npz", "-o", tmp_path / f"e{suffix}", "--resolution", 400)
+        assert_cli_error(r, "use a lower --resolution")
+        assert time.perf_counter() - t0 < 5.0 and not (tmp_path / f"e{suffix}").exists()
+        assert cli(capsys, "export", tmp_path / "s.npz", "-o", tmp_path / f"e{suffix}", "--resolution", ok, "-q").rc == 0
+    t0 = time.perf_counter()
+    assert_cli_error(cli(capsys, "demo", "--example-faces", 10_000_000, "-o", tmp_path / "d"), "ask for fewer --example-faces")
+    assert time.perf_counter() - t0 < 5.0 and not (tmp_path / "d").exists()

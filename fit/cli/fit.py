@@ -99,7 +99,8 @@ def add_parsers(sub: Any) -> None:
                        description="Generate the built-in synthetic scan (open, bumpy, noisy, with a hole), fit it "
                                    "and write DIR/scan.obj, DIR/surface.npz, DIR/surface.ply and DIR/surface.png.")
     p.add_argument("-o", "--output-dir", default="trispline-demo", metavar="DIR",
-                   help="folder for the results (created; default trispline-demo)")
+                   help="folder for the results (created; its scan.obj and surface.* are replaced, other files kept; "
+                        "default trispline-demo)")
     p.add_argument("--example-faces", type=example_faces, default=EXAMPLE_FACES, metavar="N",
                    help=f"triangles of the built-in scan (default {EXAMPLE_FACES})")
     _add_fit_options(p, outputs=False)
@@ -307,7 +308,16 @@ def _load_input(args: argparse.Namespace, ui: UI) -> _Input:
     file_uv = None
     if args.example:
         from ..datasets.synthetic import synthetic_scan
+        from ..errors import FactorMemoryError
+        from ..limits import check_fit_memory
 
+        if not approximate.requested(args):  # before generating it (10M faces: minutes)
+            try:
+                check_fit_memory(args.example_faces)
+            except FactorMemoryError as exc:
+                if args.func is cmd_demo:  # the demo cannot approximate: ask for a smaller scan
+                    raise UsageError(f"{str(exc).split(';')[0]}; ask for fewer --example-faces") from None
+                raise
         V, F = synthetic_scan(args.example_faces)
         source = f"built-in example scan ({args.example_faces} faces requested)"
     else:
@@ -439,13 +449,14 @@ def _check_output_sizes(args: argparse.Namespace, mesh: _Input, outputs: dict[st
         return
     from trispline.spline.tessellate import require_tessellation_memory
 
-    from ..io.sizes import export_resolution
+    from ..io.sizes import export_resolution, require_export_memory
 
     F = np.sort(mesh.F, axis=1)
     edges = np.unique(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [0, 2]]]), axis=0).shape[0]
     nf = F.shape[0]
     r = export_resolution(nf) if args.resolution is None else args.resolution
     require_tessellation_memory(mesh.V.shape[0], edges, nf, r)
+    require_export_memory(mesh.V.shape[0], edges, nf, r, outputs["mesh"])
 
 
 def _export_sizes(args: argparse.Namespace, surface: Any, outputs: dict[str, Path | None]) -> dict[str, Any]:

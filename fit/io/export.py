@@ -42,7 +42,7 @@ from ..errors import ExportFormatError, LargeExportWarning
 from .formats import (
     CAD_FORMATS, EXPORT_FORMATS, IMAGE_FORMATS, MESH_FORMATS, SURFACE_FORMATS, check_coordinate_range, check_export_path,
 )
-from .sizes import estimate_export_bytes, export_resolution
+from .sizes import estimate_export_bytes, export_resolution, require_export_memory
 
 if TYPE_CHECKING:  # pragma: no cover
     import trimesh
@@ -254,6 +254,7 @@ def export_surface(
         r = export_resolution(surface.n_faces) if resolution is None else int(resolution)
         tri = surface.triangulation  # a tessellation beyond the memory is refused before the size warning
         require_tessellation_memory(tri.n_vertices, tri.n_edges, tri.n_faces, r, np.asarray(surface.ctrl).shape[2])
+        require_export_memory(tri.n_vertices, tri.n_edges, tri.n_faces, r, path)
         size = estimate_export_bytes(surface, path, r)
         if size > LARGE_EXPORT_BYTES:
             warnings.warn(f"{Path(path).name} will be about {size / 1e6:.0f} MB ({surface.n_faces} patches at "
