@@ -9,6 +9,8 @@ the viewer's upper right.
 """
 from __future__ import annotations
 
+import dataclasses
+
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
@@ -59,6 +61,9 @@ def _draw_scene(fig: "Figure", sc: Scene, col: int, n: int, sub: tuple[float, fl
     """Panel ``col`` of ``n``: its layers projected on screen, title, legend (a row higher when
     ``captioned``, leaving the bottom row to the caption) and colour bar."""
     font = _font(sub)
+    centre = 0.5 * (sc.frame.min(0) + sc.frame.max(0)) if sc.frame.size else np.zeros(3)  # as the VTK backend
+    sc = dataclasses.replace(sc, frame=sc.frame - centre,
+                             layers=[dataclasses.replace(layer, points=layer.points - centre) for layer in sc.layers])
     ax = fig.add_axes((col / n, 0.0, 1.0 / n, 1.0))
     ax.set_axis_off()
     focal, ps = frame(sc.frame, sc.view, (int(sub[0]), int(sub[1])), bar=sc.bar is not None)
