@@ -188,7 +188,7 @@ def _check_text(d: dict) -> str:
     lines = [
         f"{d['file']}: {d['patches']} patches, {d['vertices']} vertices, {d['interior_edges']} interior / "
         f"{d['boundary_edges']} boundary edges, {d['boundary_loops']} boundary loops ({d['holes']} holes)",
-        f"  bounds: min {np.round(b[0], 6).tolist()} max {np.round(b[1], 6).tolist()}",
+        f"  bounds: min {(np.round(b[0], 6) + 0.0).tolist()} max {(np.round(b[1], 6) + 0.0).tolist()}",  # no -0.0
         "  relative residuals: " + ", ".join(f"{k} {fmt(v)}" for k, v in d["relative_residuals"].items()),
     ]
     if "energies" in d:
