@@ -9,15 +9,13 @@ the viewer's upper right.
 """
 from __future__ import annotations
 
-import dataclasses
-
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
 from trispline.spline.tolerances import TINY
 
-from ..scene import BACKGROUND, CAPTION_RGB, NAN_RGB, STRIPE_RGB, Layer, Scene, wrap_legend
+from ..scene import BACKGROUND, CAPTION_RGB, NAN_RGB, STRIPE_RGB, Layer, Scene, centred, wrap_legend
 from ..view import frame
 from ..zebra import stripe_pattern
 
@@ -61,9 +59,7 @@ def _draw_scene(fig: "Figure", sc: Scene, col: int, n: int, sub: tuple[float, fl
     """Panel ``col`` of ``n``: its layers projected on screen, title, legend (a row higher when
     ``captioned``, leaving the bottom row to the caption) and colour bar."""
     font = _font(sub)
-    centre = 0.5 * (sc.frame.min(0) + sc.frame.max(0)) if sc.frame.size else np.zeros(3)  # as the VTK backend
-    sc = dataclasses.replace(sc, frame=sc.frame - centre,
-                             layers=[dataclasses.replace(layer, points=layer.points - centre) for layer in sc.layers])
+    sc = centred(sc)
     ax = fig.add_axes((col / n, 0.0, 1.0 / n, 1.0))
     ax.set_axis_off()
     focal, ps = frame(sc.frame, sc.view, (int(sub[0]), int(sub[1])), bar=sc.bar is not None)

@@ -9,14 +9,12 @@ by the surface they lie on.
 """
 from __future__ import annotations
 
-import dataclasses
-
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any, Iterator, Sequence
 
 import numpy as np
 
-from ..scene import BACKGROUND, CAPTION_RGB, NAN_RGB, STRIPE_RGB, Layer, Scene, wrap_legend
+from ..scene import BACKGROUND, CAPTION_RGB, NAN_RGB, STRIPE_RGB, Layer, Scene, centred, wrap_legend
 from ..view import frame
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -94,12 +92,9 @@ def _small_font(sub_size: tuple[float, float]) -> int:
 
 def _add_scene(pl: "pyvista.Plotter", sc: Scene, col: int, sub_size: tuple[float, float], captioned: bool) -> None:
     """One panel: its layers, title, legend (a row higher when ``captioned``, leaving the bottom
-    row to the caption) and a parallel camera fitted to its frame. VTK draws in 32-bit floats: the panel
-    is moved to its frame's centre first (a tile at UTM's 4e6 m kept 0.25 m of its coordinates and lost
-    its zebra stripes), which a parallel camera does not see."""
-    centre = 0.5 * (sc.frame.min(0) + sc.frame.max(0)) if sc.frame.size else np.zeros(3)
-    sc = dataclasses.replace(sc, frame=sc.frame - centre,
-                             layers=[dataclasses.replace(layer, points=layer.points - centre) for layer in sc.layers])
+    row to the caption) and a parallel camera fitted to its frame, all moved to the frame's centre
+    (:func:`~..scene.centred`: VTK draws in 32-bit floats)."""
+    sc = centred(sc)
     for layer in sc.layers:
         _add_layer(pl, layer, sc, col)
     pl.add_text(sc.title, position="upper_edge", font_size=_font(sub_size), color="black")
