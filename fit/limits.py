@@ -60,20 +60,27 @@ def estimate_fit_bytes(n_faces: int) -> int:
     return int(FIT_BASE_BYTES + FIT_BYTES_PER_FACE * n_faces)
 
 
-def check_fit_memory(n_faces: int, max_bytes: int | str | None = "available") -> None:
+#: The way out of a fit too large for the memory, as :func:`refuse_above` says it by default.
+APPROXIMATE_INSTEAD = ("approximate it with fewer patches: trispline fit --tolerance TOL (approximation mode), or fit a "
+                       "smaller mesh")
+
+
+def check_fit_memory(n_faces: int, max_bytes: int | str | None = "available", *, advice: str = APPROXIMATE_INSTEAD
+                     ) -> None:
     """Refuse (:class:`FactorMemoryError`) an interpolating fit of ``n_faces`` faces whose peak
     (:func:`estimate_fit_bytes`) exceeds ``max_bytes`` (as :func:`trispline.fit.solve.check_memory`), before any work: a
-    1M-face scan needs ~24 GB, and its parameterization alone can take minutes."""
+    1M-face scan needs ~24 GB, and its parameterization alone can take minutes. ``advice``: the way out."""
     refuse_above(estimate_fit_bytes(n_faces), available_memory() if max_bytes == "available" else max_bytes,
-                 f"an interpolating fit of {n_faces:,} faces", f" (about {format_bytes(FIT_BYTES_PER_FACE)} a face)")
+                 f"an interpolating fit of {n_faces:,} faces", f" (about {format_bytes(FIT_BYTES_PER_FACE)} a face)",
+                 advice)
 
 
-def refuse_above(estimate: int, limit: int | None, what: str, why: str = "") -> None:
+def refuse_above(estimate: int, limit: int | None, what: str, why: str = "", advice: str = APPROXIMATE_INSTEAD) -> None:
     """:class:`FactorMemoryError` when ``estimate`` bytes exceed ``limit`` (None: no limit known), naming
-    ``what`` needs them (``why``: how they were estimated) and the way out: the approximation's fewer patches."""
+    ``what`` needs them (``why``: how they were estimated) and the way out (``advice``: by default the
+    approximation's fewer patches)."""
     if limit is None or estimate <= limit:
         return
     raise FactorMemoryError(
         f"{what} needs about {format_bytes(estimate)}{why}, but only {format_bytes(limit)} of memory are available; "
-        "approximate it with fewer patches: trispline fit --tolerance TOL (approximation mode), or fit a "
-        "smaller mesh", estimate=estimate, available=limit)
+        f"{advice}", estimate=estimate, available=limit)

@@ -427,16 +427,12 @@ def run_cli(make_parser: Callable[[], argparse.ArgumentParser], argv: Sequence[s
         except (OSError, ValueError, AttributeError):  # a stdout without a file descriptor
             pass
         return EXIT_BROKEN_PIPE
-    except ResultRejected as exc:
+    except (InputError, CommandFailed, ResultRejected) as exc:
         if debug:
             traceback.print_exc()
         print(f"{PROG}: error: {one_line(str(exc))}", file=sys.stderr)
-        return EXIT_CHECK
-    except (InputError, CommandFailed) as exc:
-        if debug:
-            traceback.print_exc()
-        print(f"{PROG}: error: {one_line(str(exc))}", file=sys.stderr)
-        return EXIT_INPUT if isinstance(exc, InputError) else EXIT_FAILURE
+        return (EXIT_INPUT if isinstance(exc, InputError) else EXIT_CHECK if isinstance(exc, ResultRejected)
+                else EXIT_FAILURE)
     except Exception as exc:  # noqa: BLE001 - the CLI's last line of defence
         if Interrupts.pending and not debug:  # an interrupt that a library turned into its own error
             print(f"{PROG}: interrupted", file=sys.stderr)

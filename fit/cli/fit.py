@@ -308,16 +308,11 @@ def _load_input(args: argparse.Namespace, ui: UI) -> _Input:
     file_uv = None
     if args.example:
         from ..datasets.synthetic import synthetic_scan
-        from ..errors import FactorMemoryError
-        from ..limits import check_fit_memory
+        from ..limits import APPROXIMATE_INSTEAD, check_fit_memory
 
-        if not approximate.requested(args):  # before generating it (10M faces: minutes)
-            try:
-                check_fit_memory(args.example_faces)
-            except FactorMemoryError as exc:
-                if args.func is cmd_demo:  # the demo cannot approximate: ask for a smaller scan
-                    raise UsageError(f"{str(exc).split(';')[0]}; ask for fewer --example-faces") from None
-                raise
+        if not approximate.requested(args):  # before generating it (10M faces: minutes); the demo cannot approximate
+            check_fit_memory(args.example_faces, advice="ask for fewer --example-faces" if args.func is cmd_demo
+                             else APPROXIMATE_INSTEAD)
         V, F = synthetic_scan(args.example_faces)
         source = f"built-in example scan ({args.example_faces} faces requested)"
     else:

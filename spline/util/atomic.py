@@ -68,12 +68,13 @@ def _temp_affixes(path: Path, name_max: int) -> tuple[str, str]:
     return "." + os.fsdecode(name) + ".", suffix
 
 
-def check_writable(target: str | os.PathLike, what: str = "") -> Path:
+def check_writable(target: str | os.PathLike, what: str = "", *, probe: bool = True) -> Path:
     """``Path(target)`` if an output can be written there, else :class:`OutputError` saying why.
 
     Checks, before any work: the folder exists and is writable (for the effective user),
     the target is not a folder, and its name fits the file system (``NAME_MAX`` bytes).
-    ``what`` names the output in messages (``"the output"``, ``"--mesh-out"``).
+    ``what`` names the output in messages (``"the output"``, ``"--mesh-out"``). ``probe``: also create and
+    remove a file there (:func:`_probe`; not where a temporary file is made next anyway).
     """
     path = Path(target)
     label = f"{what} {path}" if what else str(path)
@@ -93,7 +94,8 @@ def check_writable(target: str | os.PathLike, what: str = "") -> Path:
     effective = os.access in os.supports_effective_ids
     if not os.access(folder, os.W_OK | os.X_OK, effective_ids=effective):
         raise OutputError(f"cannot write {label}: folder {folder} is not writable")
-    _probe(folder, label)
+    if probe:
+        _probe(folder, label)
     return path
 
 
@@ -113,7 +115,7 @@ def _probe(folder: Path, label: str) -> None:
 
 def _temp_for(path: Path) -> Path:
     """Create (empty) and return a fresh temporary file beside ``path`` with the same suffix."""
-    check_writable(path)
+    check_writable(path, probe=False)  # the temporary file below is the probe
     prefix, suffix = _temp_affixes(path, _name_max(path.parent))
     try:
         fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=path.parent)
