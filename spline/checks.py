@@ -15,6 +15,7 @@ from typing import Any, Sequence, Union
 import numpy as np
 
 from .errors import InputError, first_few
+from .tolerances import MAX_MAGNITUDE
 
 
 #: One axis of an expected shape: a length, ``None`` (any length, shown as ``n``) or a
@@ -130,3 +131,12 @@ def check_bary(bary: np.ndarray, name: str, *, error: type[InputError] = InputEr
         raise error(f"{name} rows must sum to 1 (barycentric coordinates): {int(off.sum())} do not, row {k} "
                     f"sums to {bary[k].sum():.6g}")
     return bary
+
+
+def check_magnitude(arr: np.ndarray, name: str, *, hint: str = "", error: type[InputError] = InputError) -> np.ndarray:
+    """Refuse entries of ``arr`` beyond :data:`~trispline.spline.tolerances.MAX_MAGNITUDE` (their squares overflow
+    double precision); ``hint``: what to do, appended. Returns ``arr``."""
+    big = float(np.abs(arr).max()) if arr.size else 0.0
+    if big > MAX_MAGNITUDE:
+        raise error(f"{name} reach {big:.3g}: beyond {MAX_MAGNITUDE:g} their squares overflow double precision{hint}")
+    return arr

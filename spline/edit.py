@@ -44,10 +44,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .checks import as_array, check_ids, real_number, whole_number
+from .checks import as_array, check_ids, check_magnitude, real_number, whole_number
 from .errors import DependentPointError, InputError, NotC1Error, first_few
 from .propagation import KIND_FRAME, KIND_NAMES, SplineSpace
-from .tolerances import FROM_SURFACE_RTOL, MAX_MAGNITUDE
+from .tolerances import FROM_SURFACE_RTOL
 from .util import gather as _gather
 
 __all__ = ["SplineEditor", "EditResult", "DependentPointError", "NotC1Error"]
@@ -326,10 +326,8 @@ class SplineEditor:
         """
         ids = self._free_ids(free_ids)
         # one position (d,) reads as (1, d)
-        pos = as_array(np.atleast_2d(positions), "positions", (ids.size, self._free.shape[1]), finite=True)
-        if pos.size and np.abs(pos).max() > MAX_MAGNITUDE:
-            raise InputError(f"positions reach {np.abs(pos).max():.3g}: beyond {MAX_MAGNITUDE:g} the surface's squares "
-                             "overflow double precision")
+        pos = check_magnitude(as_array(np.atleast_2d(positions), "positions", (ids.size, self._free.shape[1]),
+                                       finite=True), "positions")
         old = self._free[ids]
         self._free[ids] = pos
         rows = self._column_rows(ids)

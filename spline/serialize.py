@@ -30,10 +30,9 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from .checks import as_array, check_ids
+from .checks import as_array, check_ids, check_magnitude
 from .errors import InputError, OutputError, SurfaceFileError, first_few
 from .index import DEGREE, NCTRL
-from .tolerances import MAX_MAGNITUDE
 from .util.atomic import atomic_path
 from .util.npz import NpyHeader, npz_headers, read_npz
 
@@ -88,9 +87,7 @@ def validate_surface_arrays(
     if bad.size:
         raise error(f"{source}: NaN or infinite control points in faces {first_few(bad)}")
     for name, arr in (("uv", uv), ("control points", ctrl)):
-        if arr.size and np.abs(arr).max() > MAX_MAGNITUDE:
-            raise error(f"{source}: {name} reach {np.abs(arr).max():.3g}: beyond {MAX_MAGNITUDE:g} their squares "
-                        "overflow double precision (rescale the surface)")
+        check_magnitude(arr, f"{source}: {name}", hint=" (rescale the surface)", error=error)
     check_ids(faces, f"{source}: faces", uv.shape[0], error=error)
     return uv, faces, ctrl
 

@@ -35,7 +35,8 @@ from .patches import check_ctrl
 from .topology import Triangulation
 from .util import gather as _gather, memory as _memory, parallel as _parallel
 
-__all__ = ["Tessellation", "patch_points", "require_tessellation_memory", "tessellate", "tessellation_counts"]
+__all__ = ["Tessellation", "patch_points", "require_tessellation_memory", "tessellate", "tessellation_bytes",
+           "tessellation_counts"]
 
 #: Meshes with fewer faces are tessellated on the calling thread only.
 PARALLEL_FACES = 8192
@@ -65,13 +66,19 @@ def tessellation_counts(n_vertices: int, n_edges: int, n_faces: int, resolution:
     return n_vertices + (r - 1) * n_edges + (r - 1) * (r - 2) // 2 * n_faces, r * r * n_faces
 
 
+def tessellation_bytes(n_points: int, n_triangles: int, dim: int = 3) -> int:
+    """Bytes of a :class:`Tessellation` of ``n_points`` and ``n_triangles``: points, normals and uv in float64,
+    triangles in the narrowest index type."""
+    return n_points * (dim + 5) * 8 + n_triangles * 3 * np.dtype(_memory.index_dtype(n_points)).itemsize
+
+
 def require_tessellation_memory(n_vertices: int, n_edges: int, n_faces: int, resolution: int, dim: int = 3
                                 ) -> tuple[int, int]:
     """:func:`tessellation_counts`, after refusing (``ResourceError``) a tessellation whose arrays
     would not fit in the available memory; callers may ask before the surface exists."""
     r = whole_number(resolution, "resolution", least=1)
     m, nt = tessellation_counts(n_vertices, n_edges, n_faces, r)
-    _memory.require_memory(m * (dim + 5) * 8 + nt * 3 * np.dtype(_memory.index_dtype(m)).itemsize,
+    _memory.require_memory(tessellation_bytes(m, nt, dim),
                            f"tessellating {n_faces} patches at resolution {r} ({m} points, {nt} triangles)",
                            "use a lower resolution")
     return m, nt

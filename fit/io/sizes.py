@@ -51,13 +51,12 @@ EXPORT_MEMORY_FACTOR = {".ply": 3.0, ".glb": 3.0, ".stl": 8.0, ".off": 8.0, ".ob
 def require_export_memory(n_vertices: int, n_edges: int, n_faces: int, resolution: int, path: str | os.PathLike
                           ) -> None:
     """Refuse (``ResourceError``), before any work, a mesh export whose writing would not fit in memory."""
-    from trispline.spline.tessellate import tessellation_counts
+    from trispline.spline.tessellate import tessellation_bytes, tessellation_counts
     from trispline.spline.util.memory import require_memory
 
     suffix = check_export_path(path, MESH_FORMATS)
     m, nt = tessellation_counts(n_vertices, n_edges, n_faces, resolution)
-    tessellation = m * 8 * 8 + nt * 12  # points, normals, uv and 32-bit triangles, as the tessellation sizes them
-    require_memory(EXPORT_MEMORY_FACTOR[suffix] * tessellation,
+    require_memory(EXPORT_MEMORY_FACTOR[suffix] * tessellation_bytes(m, nt),
                    f"writing {os.fspath(path)} ({n_faces} patches at resolution {resolution}: {m:,} points, "
                    f"{nt:,} triangles)", "use a lower --resolution")
 
