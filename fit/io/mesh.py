@@ -11,13 +11,14 @@ the result. The only exceptions are
   corners are merged (first occurrence first), because STL has no other notion
   of shared vertices.
 
-OBJ and OFF are parsed by :mod:`.mesh_parse`, PLY, STL and GLB/GLTF go through
-``trimesh.load(..., process=False)`` once their headers are checked against the file
-size. OBJ and OFF polygons are triangulated as fans ``(p0, p_i, p_i+1)`` in file order;
-trimesh triangulates PLY polygons itself and, when a PLY mixes triangles with larger
-polygons, lists the triangles first (vertex order is still kept; all-triangle files
-keep face order). Every problem, from a missing, empty, unreadable or truncated file to
-a header announcing more than the file holds or faces naming missing vertices, is one
+OBJ, OFF and binary PLY are parsed by :mod:`.mesh_parse`; ASCII PLY, STL and GLB/GLTF go
+through ``trimesh.load(..., process=False)`` once their headers are checked against the
+file (an ASCII PLY's lines against its header's elements). OBJ, OFF and binary PLY polygons
+are triangulated as fans ``(p0, p_i, p_i+1)`` in file order; trimesh triangulates ASCII PLY
+polygons itself and, when one mixes triangles with larger polygons, lists the triangles
+first (vertex order is still kept; all-triangle files keep face order). Every problem, from
+a missing, empty, unreadable or truncated file to a header announcing more or fewer
+elements than the file holds or faces naming missing vertices, is one
 :class:`~trispline.param.MeshError` naming the file and what is wrong.
 """
 from __future__ import annotations

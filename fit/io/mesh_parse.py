@@ -3,18 +3,20 @@ of the binary ones, each raising :class:`~trispline.param.MeshError` with the fi
 
 OBJ and OFF are parsed here (trimesh's OBJ reader drops unreferenced vertices silently when
 ``vt`` lines are present and keeps only one ``vt`` per vertex without saying so; its OFF
-reader fails on mixed polygon sizes), and so is a binary PLY of triangles (:func:`read_binary_ply`:
-the scanners' format, without trimesh's ~1 s import). Other PLYs, STL and GLB/GLTF go through
-``trimesh.load(..., process=False)`` after their headers are checked against the file size
-(:func:`check_ply_header`, :func:`check_stl_size`): a header that claims more elements than
-the file can hold is refused before anything is allocated.
+reader fails on mixed polygon sizes), and so is a binary PLY (:func:`read_binary_ply` for triangles:
+the scanners' format, without trimesh's ~1 s import; :func:`read_ply_polygons` for any other, whose
+mixed polygon sizes trimesh refuses). ASCII PLY, STL and GLB/GLTF go through
+``trimesh.load(..., process=False)`` after their headers are checked against the file
+(:func:`check_ply_header`, :func:`check_ply_ascii_rows`, :func:`check_stl_size`): a header that
+claims more elements than the file can hold is refused before anything is allocated.
 """
 from __future__ import annotations
 
 import io
+import struct
 from itertools import islice
 from pathlib import Path
-from typing import NamedTuple
+from typing import Iterable, Iterator, NamedTuple
 
 import numpy as np
 
@@ -22,7 +24,7 @@ from trispline.param.errors import MeshError
 from trispline.spline.errors import first_few
 
 __all__ = ["ObjMesh", "fan_triangulate", "read_obj", "read_off", "check_ply_header", "check_stl_size",
-           "read_binary_ply", "read_trimesh"]
+           "check_ply_ascii_rows", "read_binary_ply", "read_ply_polygons", "read_trimesh"]
 
 #: Why a file's ``vt`` give no uv when no face names one.
 _NO_FACE_VT = "its faces name no texture coordinates (f a/t b/t c/t)"
@@ -30,6 +32,8 @@ _NO_FACE_VT = "its faces name no texture coordinates (f a/t b/t c/t)"
 _BOM = b"\xef\xbb\xbf"
 #: Bytes of the shortest OFF vertex line (``"0 0 0\n"``) and face line (``"3 0 1 2\n"``).
 _OFF_MIN_VERTEX, _OFF_MIN_FACE = 6, 8
+#: Bytes at the end of an ASCII STL searched for its ``endsolid`` line (trimesh reads nothing without one).
+_STL_TAIL = 4096
 #: Longest PLY header read (real headers have a few hundred bytes).
 _PLY_MAX_HEADER = 1 << 16
 #: numpy's type of each PLY scalar type (byte order added by the file's format).
@@ -51,17 +55,22 @@ def fan_triangulate(polys: list[list[int]], where: Path) -> np.ndarray:
     if not polys:
         return np.zeros((0, 3), np.int64)
     sizes = np.fromiter((len(p) for p in polys), np.int64, len(polys))
-    if (sizes < 3).any():
-        raise _unreadable(where, f"polygons with fewer than 3 vertices: {first_few(np.flatnonzero(sizes < 3))}")
     try:
         flat = np.fromiter((i for p in polys for i in p), np.int64, int(sizes.sum()))
     except OverflowError:
         raise _unreadable(where, "face vertex indices beyond the int64 range") from None
+    return _fan(flat, sizes, where)
+
+
+def _fan(flat: np.ndarray, sizes: np.ndarray, where: Path) -> np.ndarray:
+    """:func:`fan_triangulate` of the polygons of ``sizes`` whose indices ``flat`` lists one after another."""
+    if (sizes < 3).any():
+        raise _unreadable(where, f"polygons with fewer than 3 vertices: {first_few(np.flatnonzero(sizes < 3))}")
     if (sizes == 3).all():
         return flat.reshape(-1, 3)
     start = np.concatenate([[0], np.cumsum(sizes)[:-1]])
     ntri = sizes - 2
-    poly_of = np.repeat(np.arange(len(polys)), ntri)
+    poly_of = np.repeat(np.arange(len(sizes)), ntri)
     k = np.arange(ntri.sum()) - np.repeat(np.cumsum(ntri) - ntri, ntri)  # 0..n-3 within polygon
     s = start[poly_of]
     return np.column_stack([flat[s], flat[s + 1 + k], flat[s + 2 + k]])
@@ -147,9 +156,10 @@ def _obj_arrays(data: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray | None,
 
 
 def _irregular(data: bytes) -> bool:
-    """Whether an OBJ has what the whole-array path does not read: tabs, indented lines, or a comment after
-    data on a line (found by ``#``'s few positions, not a scan per byte)."""
-    if b"\t" in data or b"\n " in data or data[:1] == b" ":
+    """Whether an OBJ has what the whole-array path does not read: tabs, indented lines, a backslash (a line
+    continued on the next), or a comment after data on a line (found by ``#``'s few positions, not a scan
+    per byte)."""
+    if b"\t" in data or b"\n " in data or data[:1] == b" " or b"\\" in data:  # tabs, indents, continuations
         return True
     at = data.find(b"#")
     while at >= 0:
@@ -173,8 +183,9 @@ def _table(rows: list[bytes], dtype: type) -> np.ndarray:
 
 def _read_obj_lines(path: Path, data: bytes | None = None) -> ObjMesh:
     """:func:`read_obj` line by line: every OBJ it reads (polygons, relative indices, mixed forms, tabs,
-    indents, comments after data); ``data``: the file's bytes when already read (as UTF-8, a byte order mark
-    skipped, bad bytes replaced, universal newlines, as ``open`` reads)."""
+    indents, comments after data, lines continued by a final backslash); ``data``: the file's bytes when
+    already read (as UTF-8, a byte order mark skipped, bad bytes replaced, universal newlines, as ``open``
+    reads)."""
     verts: list[str] = []  # lines, split later: lists would keep the garbage collector busy
     texs: list[str] = []
     fv: list[list[int]] = []
@@ -183,7 +194,7 @@ def _read_obj_lines(path: Path, data: bytes | None = None) -> ObjMesh:
     source = (open(path, encoding="utf-8-sig", errors="replace") if data is None
               else io.StringIO(data.decode("utf-8-sig", errors="replace"), newline=None))
     with source as fh:
-        for number, text in enumerate(fh, 1):
+        for number, text in _continued(fh):
             key, rest = (text.split("#", 1)[0].split(None, 1) + ["", ""])[:2]  # any whitespace, any indent
             if key == "v":
                 verts.append(rest)
@@ -206,6 +217,24 @@ def _read_obj_lines(path: Path, data: bytes | None = None) -> ObjMesh:
     if no_vt:
         return ObjMesh(V, F, None, f"face {no_vt} has no texture coordinates (f a/t b/t c/t)")
     return _with_uv(V, F, _coordinates(texs, 2, "texture coordinate", path), fan_triangulate(ft, path), path)
+
+
+def _continued(lines: Iterable[str]) -> Iterator[tuple[int, str]]:
+    """``(number, line)`` of an OBJ's lines, a line ending in a backslash joined with the next (the format's
+    line continuation), numbered by its first."""
+    held: list[str] = []
+    for number, text in enumerate(lines, 1):
+        end = text.rstrip()
+        if end.endswith("\\"):
+            held.append(end[:-1])
+            continue
+        if held:
+            yield number - len(held), " ".join(held + [text])
+            held = []
+        else:
+            yield number, text
+    if held:
+        yield number + 1 - len(held), " ".join(held)
 
 
 def _face_indices(rest: str, nv: int, nt: int, path: Path, number: int) -> tuple[list[int], list[int]]:
@@ -276,12 +305,15 @@ def read_off(path: Path) -> tuple[np.ndarray, np.ndarray]:
         first = next(lines, None)
         if first is None or not first[0].upper().endswith("OFF"):
             raise _unreadable(path, "not an OFF file (no OFF header)")
+        if first[1:2] == ["BINARY"]:
+            raise _unreadable(path, "binary OFF ('OFF BINARY') is not read; write it as ASCII OFF")
         head = first[1:] if len(first) >= 3 else next(lines, [])
         nv, nf = _off_counts(head, path)
         rest = list(islice(lines, nv + nf))
-    if len(rest) < nv + nf:
+        more = sum(1 for _ in lines)  # data after the last face: the header announces too few
+    if len(rest) < nv + nf or more:
         raise _unreadable(path, f"header announces {nv} vertices and {nf} faces but the file has "
-                                f"{len(rest)} data lines")
+                                f"{len(rest) + more} data lines")
     V = _coordinates(rest[:nv], 3, "vertex", path)
     polys = []
     for i, r in enumerate(rest[nv:], 1):
@@ -331,6 +363,9 @@ def check_ply_header(path: Path) -> bool:
         raise _unreadable(path, "cannot read as PLY: not a PLY file (no 'ply ... end_header' header)")
     header = blob[:end].decode("ascii", "replace").splitlines()
     fmt = next((ln.split()[1] for ln in header if ln.startswith("format") and len(ln.split()) > 1), "")
+    problem = _ply_header_problem(header, fmt)
+    if problem:
+        raise _unreadable(path, f"cannot read as PLY: {problem}")
     try:
         need, counts = _ply_min_bytes(header, fmt == "ascii")
     except ValueError as exc:
@@ -341,6 +376,27 @@ def check_ply_header(path: Path) -> bool:
         raise _unreadable(path, f"header announces {claims}, which need at least {need} bytes, "
                                 f"but the file has {max(body, 0)} after its header (truncated?)")
     return _ply_single(header)
+
+
+def _ply_header_problem(header: list[str], fmt: str) -> str | None:
+    """What makes a PLY header unreadable (an unknown format or property type, no ``vertex`` element with
+    ``x, y, z``), else None; trimesh's own words for these were ``KeyError: 'x'`` and the like."""
+    if fmt not in ("ascii", *_PLY_ORDER):
+        return f"unknown format {fmt or '(none)'!r}; PLY is ascii, binary_little_endian or binary_big_endian"
+    element, xyz = None, set()
+    for tok in (ln.split() for ln in header):
+        if tok[:1] == ["element"] and len(tok) >= 2:
+            element = tok[1]
+        elif tok[:1] == ["property"] and len(tok) >= 3:
+            types = tok[2:4] if tok[1] == "list" else tok[1:2]
+            unknown = [t for t in types if t not in _PLY_TYPES]
+            if unknown:
+                return f"property {tok[-1]!r} of element {element!r} has the unknown type {unknown[0]!r}"
+            if element == "vertex" and tok[1] != "list":
+                xyz.add(tok[2])
+    if not {"x", "y", "z"} <= xyz:
+        return "no 'vertex' element with properties x, y and z"
+    return None
 
 
 def _ply_single(header: list[str]) -> bool:
@@ -398,12 +454,8 @@ def read_binary_ply(path: Path) -> tuple[np.ndarray, np.ndarray, bool] | None:
     reads nothing else with it (issue 15's 100k-face scan: 18 s end to end). The header is checked
     first (:func:`check_ply_header`); ``single``: ``x, y, z`` stored as 4-byte floats."""
     single = check_ply_header(path)
-    with open(path, "rb") as fh:
-        blob = fh.read(_PLY_MAX_HEADER)
-    end = blob.find(b"end_header")
-    start = end + len(b"end_header")
-    start += 2 if blob[start:start + 2] == b"\r\n" else 1
-    layout = _ply_layout(blob[:end].decode("ascii", "replace").splitlines())
+    start, header = _ply_head(path)
+    layout = _ply_layout(header)
     if layout is None or layout[0] not in _PLY_ORDER or [e[0] for e in layout[1]] != ["vertex", "face"]:
         return None
     order = _PLY_ORDER[layout[0]]
@@ -424,6 +476,147 @@ def read_binary_ply(path: Path) -> tuple[np.ndarray, np.ndarray, bool] | None:
     return V, faces["corners"].astype(np.int64), single
 
 
+def _ply_head(path: Path) -> tuple[int, list[str]]:
+    """The byte where a PLY's body starts and its header's lines (a checked header: :func:`check_ply_header`)."""
+    with open(path, "rb") as fh:
+        blob = fh.read(_PLY_MAX_HEADER)
+    end = blob.find(b"end_header")
+    start = end + len(b"end_header")
+    start += 2 if blob[start:start + 2] == b"\r\n" else 1
+    return start, blob[:end].decode("ascii", "replace").splitlines()
+
+
+def read_ply_polygons(path: Path) -> tuple[np.ndarray, np.ndarray, bool] | None:
+    """``(V, F, single)`` of any binary PLY whose vertices hold no lists, or None for an ASCII one (trimesh
+    reads it) or a header :func:`_ply_layout` does not parse.
+
+    For the binary PLYs :func:`read_binary_ply` leaves: polygons of any sizes, fan-triangulated in file
+    order as OBJ and OFF are (trimesh's binary reader refuses polygons of mixed sizes: "PLY is unexpected
+    length!"), elements other than ``vertex`` and ``face`` skipped. A body shorter or longer than its
+    header's elements is refused, naming both sizes."""
+    single = check_ply_header(path)
+    start, header = _ply_head(path)
+    layout = _ply_layout(header)
+    if layout is None or layout[0] not in _PLY_ORDER:
+        return None
+    order = _PLY_ORDER[layout[0]]
+    data = path.read_bytes()
+    pos, V, F = start, np.zeros((0, 3)), np.zeros((0, 3), np.int64)
+    for name, n, props in layout[1]:
+        if any(p[0] == "list" for p in props):
+            if name == "vertex":
+                return None
+            flat, sizes, pos = _ply_lists(data, pos, n, props, order, path, name)
+            if name == "face" and flat is not None:
+                F = _fan(flat, sizes, path)
+            continue
+        rtype = _ply_dtype(props, order, False)
+        if pos + n * rtype.itemsize > len(data):
+            raise _unreadable(path, f"the PLY's element {name!r} ends past the end of the file (truncated?)")
+        rows = np.frombuffer(data, rtype, n, pos)
+        pos += n * rtype.itemsize
+        if name == "vertex":
+            names = [p[1] for p in props]
+            V = np.stack([rows[f"p{names.index(c)}_{c}"].astype(np.float64) for c in "xyz"], axis=1)
+    if pos != len(data):
+        raise _unreadable(path, f"the PLY's header announces elements of {pos - start} bytes but the file has "
+                                f"{len(data) - start} after its header (does it announce too few?)")
+    return V, F, single
+
+
+def _ply_lists(data: bytes, pos: int, n: int, props: list[tuple[str, ...]], order: str, path: Path,
+               element: str) -> tuple[np.ndarray | None, np.ndarray | None, int]:
+    """Walk the ``n`` rows of a binary PLY element with list properties from byte ``pos``: the items of its
+    ``vertex_indices`` (``vertex_index``) lists one after another as int64, each row's item count (both None
+    where it has no such list), and the byte after the element."""
+    segments = []  # (bytes of scalars before the list, its count's struct, bytes per item)
+    skip, keep, item = 0, None, None
+    for p in props:
+        if p[0] != "list":
+            skip += _PLY_SIZES[p[0]]
+            continue
+        if p[3] in ("vertex_indices", "vertex_index") and keep is None:
+            keep, item = len(segments), np.dtype(order + _PLY_TYPES[p[2]])
+        segments.append((skip, struct.Struct(order + np.dtype(_PLY_TYPES[p[1]]).char), _PLY_SIZES[p[2]]))
+        skip = 0
+    if item is not None and item.kind == "f":
+        raise _unreadable(path, f"the PLY's {element} indices are stored as floating-point numbers")
+    counts, items = np.zeros(n, np.int64), np.zeros(n, np.int64)
+    try:
+        for row in range(n):
+            for k, (before, count, size) in enumerate(segments):
+                m = count.unpack_from(data, pos + before)[0]
+                pos += before + count.size
+                if m < 0:
+                    raise _unreadable(path, f"{element} {row} of the PLY has a list of negative length {m}")
+                if k == keep:
+                    counts[row], items[row] = m, pos
+                pos += m * size
+            pos += skip
+    except struct.error:
+        pos = len(data) + 1
+    if pos > len(data):
+        raise _unreadable(path, f"the PLY's element {element!r} ends past the end of the file (truncated?)")
+    if keep is None:
+        return None, None, pos
+    first = np.repeat(items, counts)
+    within = np.arange(first.size) - np.repeat(np.cumsum(counts) - counts, counts)
+    raw = np.frombuffer(data, np.uint8)[(first + within * item.itemsize)[:, None] + np.arange(item.itemsize)]
+    return raw.reshape(-1).view(item).astype(np.int64), counts, pos
+
+
+def check_ply_ascii_rows(path: Path) -> None:
+    """Refuse an ASCII PLY whose body is not one line per element its header announces, each with as many
+    values as its properties take, and polygons of at least 3 vertices.
+
+    trimesh reads the lines it finds: a truncated file, or a header announcing more faces than the file
+    holds, was read as a smaller mesh (or its face lines as vertices) without a word."""
+    start, header = _ply_head(path)
+    layout = _ply_layout(header)
+    if layout is None or layout[0] != "ascii":
+        return
+    with open(path, "rb") as fh:
+        fh.seek(start)
+        lines = fh.read().splitlines()
+    need = sum(n for _, n, _ in layout[1])
+    extra = sum(1 for ln in lines[need:] if ln.strip())
+    if len(lines) < need or extra:
+        claims = ", ".join(f"{n} {name}" for name, n, _ in layout[1])
+        raise _unreadable(path, f"the PLY's header announces {claims}: {need} lines, but its body has "
+                                f"{min(len(lines), need) + extra}" + (" (truncated?)" if len(lines) < need else ""))
+    row = 0
+    for name, n, props in layout[1]:
+        bad = _ply_ascii_bad_row(lines[row:row + n], props, name)
+        if bad is not None:
+            raise _unreadable(path, f"line {len(header) + 2 + row + bad[0]} ({name} {bad[0]}) {bad[1]}")
+        row += n
+
+
+def _ply_ascii_bad_row(rows: list[bytes], props: list[tuple[str, ...]], element: str) -> tuple[int, str] | None:
+    """The first of ``rows`` (an ASCII PLY element of ``props``) whose values do not fit them, and what is
+    wrong with it; None when all fit."""
+    if not any(p[0] == "list" for p in props):
+        widths = np.fromiter(map(len, map(bytes.split, rows)), np.int64, len(rows))
+        wrong = np.flatnonzero(widths != len(props))
+        return None if not wrong.size else (int(wrong[0]), f"has {widths[wrong[0]]} values, expected {len(props)}")
+    for i, ln in enumerate(rows):
+        values, at = ln.split(), 0
+        for p in props:
+            if p[0] != "list":
+                at += 1
+                continue
+            try:
+                k = int(values[at])
+            except (IndexError, ValueError):
+                return i, f"has no list length where property {p[3]!r} starts"
+            if element == "face" and p[3] in ("vertex_indices", "vertex_index") and k < 3:
+                return i, f"is a polygon of {k} vertices (at least 3 needed)"
+            at += 1 + k
+        if at != len(values):
+            return i, f"has {len(values)} values, its properties take {at}"
+    return None
+
+
 def check_stl_size(path: Path) -> None:
     """Refuse a file that is neither ASCII STL nor a binary STL of the size its header claims."""
     size = path.stat().st_size
@@ -433,13 +626,18 @@ def check_stl_size(path: Path) -> None:
         n = int.from_bytes(head[80:84], "little")
         if 84 + 50 * n == size:
             return
-    if head.lstrip().startswith(b"solid"):
-        return
+    solid = head.lstrip().lower().startswith(b"solid")
+    if solid:
+        with open(path, "rb") as fh:
+            fh.seek(max(size - _STL_TAIL, 0))
+            if b"endsolid" in fh.read().lower():
+                return
+    as_ascii = ("as ASCII STL it has no 'endsolid' line (truncated?)" if solid
+                else "it does not start with 'solid' (ASCII STL)")
     if size < 84:
-        raise _unreadable(path, f"not an STL file ({size} bytes: too short for binary STL, no 'solid' line)")
+        raise _unreadable(path, f"not an STL file ({size} bytes: too short for binary STL, and {as_ascii})")
     raise _unreadable(path, f"not an STL file: as binary STL its header announces {n} triangles "
-                            f"({84 + 50 * n} bytes) but the file has {size} bytes, and it does not start "
-                            "with 'solid' (ASCII STL)")
+                            f"({84 + 50 * n} bytes) but the file has {size} bytes, and {as_ascii}")
 
 
 def read_trimesh(path: Path, ext: str) -> tuple[np.ndarray, np.ndarray, bool]:
@@ -448,6 +646,8 @@ def read_trimesh(path: Path, ext: str) -> tuple[np.ndarray, np.ndarray, bool]:
     stores the coordinates in single precision (binary PLY of ``float`` vertices, STL, GLB/GLTF)."""
     if ext == ".ply":
         fast = read_binary_ply(path)
+        if fast is None:
+            fast = read_ply_polygons(path)
         if fast is not None:
             return fast
     import trimesh
@@ -455,6 +655,7 @@ def read_trimesh(path: Path, ext: str) -> tuple[np.ndarray, np.ndarray, bool]:
     single = ext in (".stl", ".glb", ".gltf")
     if ext == ".ply":
         single = check_ply_header(path)
+        check_ply_ascii_rows(path)
     elif ext == ".stl":
         check_stl_size(path)
     mesh = trimesh.load(path, process=False, force="mesh", maintain_order=True)
