@@ -49,6 +49,17 @@ class Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # type: ignore[override]
         raise UsageError(f"{message} (see '{self.prog} --help')")
 
+    def parse_args(self, args=None, namespace=None) -> argparse.Namespace:  # type: ignore[override]
+        """argparse's, but a lone unexpected file name where the command's ``-o`` was left out says that the
+        output goes after ``-o`` (``trispline export s.npz s.step`` is a natural first try)."""
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            hint = ""
+            if len(extras) == 1 and Path(extras[0]).suffix and getattr(parsed, "output", "") is None:
+                hint = f"; an output is named with -o: -o {extras[0]}"
+            self.error(f"unrecognized arguments: {' '.join(extras)}{hint}")
+        return parsed
+
 
 # ============================================================================ output
 class UI:

@@ -224,6 +224,8 @@ def test_surface_file_missing_and_bad_suffix(tmp_path):
     (("export", "s.npz"), "nothing to write"),
     (("export", "s.npz", "-o", "x.obj", "--net-lines"), "--net-lines needs --control-net"),
     (("check", "s.npz", "--tolerance", "nan"), "expected a finite number"),
+    (("export", "s.npz", "s.step"), "unrecognized arguments: s.step; an output is named with -o: -o s.step"),
+    (("info", "m.obj", "n.obj"), "unrecognized arguments: n.obj (see"),  # info writes nothing: no -o advice
 ])
 def test_usage_errors(tmp_path, args, match):
     assert_input_error(run(*args, cwd=tmp_path), match)
