@@ -259,7 +259,7 @@ def _check_ids(V: np.ndarray, F: np.ndarray, ids: np.ndarray) -> None:
     nv = V.shape[0]
     bad_v = np.flatnonzero(~np.isfinite(V).all(1))
     if bad_v.size:
-        raise MeshError(f"non-finite vertex coordinates (NaN or inf) at vertices {first_few(ids[bad_v])}",
+        raise MeshError(f"non-finite vertex coordinates (NaN or inf): vertices {first_few(ids[bad_v])}",
                         ["non_finite"])
     if (why := scale_problem(V, ids)) is not None:
         raise MeshError(why, ["scale"])
