@@ -57,6 +57,8 @@ ROUGH_DEGREE = 4
 #: Relative eigenvalue below which a direction of the monomials' normal matrix is dropped (on a sphere
 #: ``x^2 + y^2 + z^2`` is constant: without the cut the coefficients cancel to rounding noise).
 EIG_CUT = 1e-20
+#: :func:`grid_centre` rounds to this many bits below the mesh's size.
+CENTRE_BITS = 20
 #: Rows of the 3D monomials formed at once.
 CHUNK = 1 << 16
 
@@ -69,12 +71,24 @@ def _monomials3(X: np.ndarray, degree: int) -> np.ndarray:
     return np.stack(cols, 1)
 
 
+def grid_centre(V: np.ndarray) -> np.ndarray:
+    """``(d,)`` the bounding-box centre of ``V (n, d)`` rounded to a power of two :data:`CENTRE_BITS` below
+    its size: ``V - grid_centre(V)`` is then exact, and the same for a tile stored at map coordinates
+    (``V + 5e6``) as for the same stored data moved to the origin (a plain centre differs by the offset's
+    rounding), so that what is computed from it does not depend on where the tile lies."""
+    size = max(float(np.ptp(V, axis=0).max()), np.finfo(float).tiny)
+    grid = 2.0 ** (np.floor(np.log2(size)) - CENTRE_BITS)
+    return np.round(0.5 * (V.min(0) + V.max(0)) / grid) * grid
+
+
 def polynomial_map(V: np.ndarray, uv: np.ndarray, degree: int) -> np.ndarray:
     """``(nv, 2)`` the least-squares polynomial of degree ``degree`` in the (centred, scaled) positions
     ``V (nv, 3)`` that best fits ``uv (nv, 2)``, at the vertices: minimum-norm where the monomials are
     dependent on the surface (:data:`EIG_CUT`)."""
-    centre = 0.5 * (V.min(0) + V.max(0))
-    X = (V - centre) / max(float(np.ptp(V, axis=0).max()), np.finfo(float).tiny)
+    size = max(float(np.ptp(V, axis=0).max()), np.finfo(float).tiny)
+    # the minimum-norm fit is not shift-invariant where the monomials are dependent (a sphere cap): a centre
+    # off by a UTM offset's rounding (1e-10 of the size) moved the map by 6e-7 and the surface by 1e-5 of the diagonal
+    X = (V - grid_centre(V)) / size
     p = _monomials3(X[:1], degree).shape[1]
     G, B = np.zeros((p, p)), np.zeros((p, 2))
     for lo in range(0, len(X), CHUNK):

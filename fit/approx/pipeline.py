@@ -29,6 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from trispline.param import DEFAULT_METHOD, face_areas_3d, hull_sliver_faces
+from trispline.param.polymap import grid_centre
 from trispline.spline.checks import as_array, callback, check_ids, flag, real_number, whole_number
 from trispline.spline.continuity import continuity_report
 from trispline.spline.errors import InputError, first_few
@@ -289,7 +290,10 @@ def _smoothed(V: np.ndarray, F: np.ndarray, steps: int = PARAM_SMOOTHING) -> np.
     median edge lengths from the mean of their neighbours, for an outline vertex its two outline
     neighbours, and farther than any neighbour) moved there, a few rounds (not where that would
     flatten a face, like an ear of the outline), then ``steps`` uniform-Laplacian steps of the
-    interior vertices."""
+    interior vertices. Moved by :func:`~trispline.param.polymap.grid_centre` (the maps do not depend on
+    it): averages of map coordinates (5e6) rounded the map by 1e-9 of its size; now a tile at UTM offsets
+    gets the map of the same stored data at the origin, bit for bit."""
+    V = V - grid_centre(V)
     n = V.shape[0]
     key = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
     edge, count = np.unique(key[:, 0] * n + key[:, 1], return_counts=True)
