@@ -43,6 +43,11 @@ class LargeExportWarning(UserWarning):
     :data:`~trispline.fit.io.export.LARGE_EXPORT_BYTES`."""
 
 
+class LossyExportWarning(UserWarning):
+    """A mesh format that stores 32-bit floats (STL, GLB) would round the coordinates by a noticeable share of
+    the surface's extent: a tile at map (UTM) coordinates (see :func:`trispline.fit.io.formats.check_coordinate_range`)."""
+
+
 class RenderError(InputError):
     """A bad render request (unknown mode or view, bad size, deviation without a data mesh)."""
 

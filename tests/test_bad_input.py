@@ -35,7 +35,8 @@ import pytest
 import trimesh
 
 from trispline.fit.cli import main
-from trispline.fit.io import read_mesh
+from trispline.fit.errors import LossyExportWarning
+from trispline.fit.io import export_mesh, read_mesh
 from trispline.param import MeshError, distortion_report, parameterize, repair_mesh, validate_mesh
 from trispline.param.testing import bumpy_disk
 from trispline.spline.errors import InputError, OutputError, ResourceError, SurfaceFileError
@@ -1096,6 +1097,27 @@ def test_float32_mesh_formats_refuse_coordinates_they_cannot_hold(tmp_path, caps
     before.assert_unchanged()
     assert cli(capsys, "export", tmp_path / "s.npz", "-o", tmp_path / "e.ply", "-q").rc == 0
 
+
+def test_float32_mesh_formats_warn_where_they_round_map_coordinates(tmp_path, capsys):
+    """A tile at UTM offsets (5e5, 5e6) written as STL or GLB lost 0.25 m a coordinate without a word: a warning
+    names the rounding and the 64-bit formats; the same tile at the origin, or as PLY, writes quietly."""
+    mesh = _grid_obj(tmp_path / "m.obj", n=10, scale=1000.0, plane="bumpy")
+    V = read_mesh(mesh).V
+    utm = tmp_path / "utm.obj"
+    with open(utm, "w") as fh:
+        np.savetxt(fh, V + [5e5, 5e6, 300.0], fmt="v %.17g %.17g %.17g")
+        np.savetxt(fh, read_mesh(mesh).F + 1, fmt="f %d %d %d")
+    for name in ("m", "utm"):
+        assert cli(capsys, "fit", tmp_path / f"{name}.obj", "-o", tmp_path / f"{name}.npz", "-q").rc == 0
+    for suffix in (".stl", ".glb"):
+        r = cli(capsys, "export", tmp_path / "utm.npz", "-o", tmp_path / f"utm{suffix}")
+        assert r.rc == 0 and "32-bit floats" in r.err and "0.25" in r.err and ".ply" in r.err, r.err
+        r = cli(capsys, "export", tmp_path / "m.npz", "-o", tmp_path / f"m{suffix}")
+        assert r.rc == 0 and "warning" not in r.err, r.err
+    r = cli(capsys, "export", tmp_path / "utm.npz", "-o", tmp_path / "utm.ply")
+    assert r.rc == 0 and "warning" not in r.err, r.err
+    with pytest.warns(LossyExportWarning, match="32-bit floats"):
+        export_mesh(V + [5e5, 5e6, 300.0], read_mesh(mesh).F, tmp_path / "api.stl")
 
 def test_a_surface_file_beyond_double_precision_is_refused(tmp_path, capsys, surface):
     arrays = surface_arrays(surface)

@@ -439,7 +439,7 @@ def _check_output_sizes(args: argparse.Namespace, mesh: _Input, outputs: dict[st
 
     for key in ("mesh", "control_net"):
         if outputs.get(key) is not None:
-            check_coordinate_range(outputs[key], float(np.abs(mesh.V).max()))
+            check_coordinate_range(outputs[key], mesh.V)
     if outputs.get("mesh") is None:
         return
     from trispline.spline.tessellate import require_tessellation_memory

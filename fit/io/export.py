@@ -151,12 +151,6 @@ def _check_picture_options(options: dict[str, Any]) -> None:
                          f"known: {', '.join(sorted(known))}")
 
 
-def _largest(points: np.ndarray) -> float:
-    """The largest coordinate magnitude of ``points (..., 3)`` (0 for none)."""
-    a = np.asarray(points)
-    return float(np.abs(a).max()) if a.size else 0.0
-
-
 def _write_ply(vertices: np.ndarray, triangles: np.ndarray, normals: np.ndarray | None, tmp: Path) -> None:
     """Binary little-endian PLY in double precision (trimesh's writer stores float32)."""
     fields = [("xyz", "<f8", (3,))] + ([("n", "<f8", (3,))] if normals is not None else [])
@@ -214,7 +208,7 @@ def export_mesh(
     F = check_ids(as_array(F, "F", (None, 3), integer=True, whole_floats=False), "F", V.shape[0])
     if normals is not None:
         normals = as_array(normals, "normals", (V.shape[0], 3), finite=True)
-    check_coordinate_range(path, _largest(V))
+    check_coordinate_range(path, V)
     mesh = _trimesh(V, F, normals)
     return write_with(path, lambda tmp: _write_mesh(mesh, tmp, suffix, normals is not None), outputs)
 
@@ -250,7 +244,7 @@ def export_surface(
     if suffix in IMAGE_FORMATS:
         _check_picture_options(image_options)
     if suffix in MESH_FORMATS:
-        check_coordinate_range(path, _largest(surface.ctrl))  # the surface lies in its control points' hull
+        check_coordinate_range(path, surface.ctrl)  # the surface lies in its control points' hull
         r = export_resolution(surface.n_faces) if resolution is None else int(resolution)
         tri = surface.triangulation  # a tessellation beyond the memory is refused before the size warning
         require_tessellation_memory(tri.n_vertices, tri.n_edges, tri.n_faces, r, np.asarray(surface.ctrl).shape[2])
@@ -285,7 +279,7 @@ def export_control_net(
     if lines:
         points, _, segments = control_net(surface)
         return write_with(path, lambda tmp: _write_obj_lines(points, segments, tmp), outputs)
-    check_coordinate_range(path, _largest(surface.ctrl))
+    check_coordinate_range(path, surface.ctrl)
     mesh = control_net_mesh(surface)
     return write_with(path, lambda tmp: _write_mesh(mesh, tmp, suffix, False), outputs)
 
