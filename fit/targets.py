@@ -135,12 +135,18 @@ def padded_neighbours(
 #: Rows of :func:`_nearest_first` sorted per chunk: its padded ``(rows, width)`` arrays stay small where a
 #: few rows are very wide (a random Delaunay scan's 3-rings reach 292 vertices beside a mean of 39).
 NEAREST_CHUNK = 4096
+#: Neighbour distances within this share of the row's farthest are ties, taken in vertex order: on a regular grid
+#: many are equal, and their roundings (which a scale, a rotation or map coordinates change: a unit grid at UTM
+#: offsets rounds its map by ~1e-8) picked different neighbours for the local fits (a 12 x 12 grid's harmonic fit
+#: moved by 7.7e-4 of the diagonal when scaled by 1e-3).
+TIE_RTOL = 1e-6
 
 
 def _nearest_first(R: sp.csr_matrix, uv: np.ndarray, centre: np.ndarray, max_neighbours: int
                    ) -> tuple[np.ndarray, np.ndarray]:
     """The rows of ``R (m, nv)`` (bool CSR, sorted, without ``centre``) as padded lists ``(m, K)``, nearest
-    to ``uv[centre] (m,)`` first (ties in column order), truncated to ``max_neighbours``; and their counts.
+    to ``uv[centre] (m,)`` first (ties, to :data:`TIE_RTOL`, in column order), truncated to ``max_neighbours``;
+    and their counts.
 
     In chunks of :data:`NEAREST_CHUNK` rows, each padded to its own widest row (the padding sorts last)."""
     m = R.shape[0]
@@ -167,8 +173,23 @@ def _nearest_first(R: sp.csr_matrix, uv: np.ndarray, centre: np.ndarray, max_nei
         cols = np.full((hi - lo, width), -1, np.int64)
         cols[row, slot] = col
         k = min(K, width)
-        out[lo:hi, :k] = np.take_along_axis(cols, np.argsort(dist, axis=1, kind="stable")[:, :k], axis=1)
+        out[lo:hi, :k] = _ties_in_column_order(dist, cols)[:, :k]
     return out, count
+
+
+def _ties_in_column_order(dist: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """``cols (m, w)`` sorted by ``dist (m, w)`` (padding: inf), a run of distances each within :data:`TIE_RTOL` of
+    the row's farthest from the one before being a tie, taken in column order. Runs rather than rounded
+    distances: a tie whose members differ by a rounding never straddles a rounding step."""
+    order = np.argsort(dist, axis=1, kind="stable")
+    near = np.take_along_axis(dist, order, axis=1)
+    cols = np.take_along_axis(cols, order, axis=1)
+    farthest = np.max(np.where(np.isfinite(near), near, 0.0), axis=1, keepdims=True)
+    with np.errstate(invalid="ignore"):  # inf - inf between paddings: no step
+        step = np.diff(near, axis=1) > TIE_RTOL * farthest
+    run = np.concatenate([np.zeros((near.shape[0], 1), np.int64), np.cumsum(step, axis=1)], axis=1)
+    key = run * (int(cols.max(initial=0)) + 2) + (cols + 1)  # run first, then the column (padding -1)
+    return np.take_along_axis(cols, np.argsort(key, axis=1, kind="stable"), axis=1)
 
 
 def rings_of(faces: np.ndarray, nv: int, centre: np.ndarray, rings: np.ndarray) -> sp.csr_matrix:

@@ -37,7 +37,7 @@ UTM_ULPS = 32
 
 
 def height_field(n: int = 150, seed: int = 4) -> tuple[np.ndarray, np.ndarray]:
-    """Franke's exponential over ``n`` random points of the unit square (no grid: no distance ties)."""
+    """Franke's exponential over ``n`` random points of the unit square."""
     p = sample_points(n, seed=seed)
     return np.column_stack([p, exponential(p[:, 0], p[:, 1])]), orient_ccw(p, Delaunay(p).simplices)
 
@@ -58,7 +58,18 @@ def sphere_cap(n: int = 160, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
     return np.column_stack([1.5 * np.sin(polar) * p / np.maximum(rho, 1e-300), 1.5 * np.cos(polar)]), F
 
 
-MESHES = {"height field": height_field, "sphere cap with a hole": sphere_cap}
+def regular_grid(n: int = 12) -> tuple[np.ndarray, np.ndarray]:
+    """A height field on an exact ``n x n`` grid: many neighbours at equal distances (a terrain tile's DEM),
+    whose roundings once picked the local fits' neighbours (a harmonic fit moved 7.7e-4 of the diagonal)."""
+    t = np.linspace(0.0, 1.0, n + 1)
+    x, y = (a.ravel() for a in np.meshgrid(t, t, indexing="ij"))
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(n), np.arange(n), indexing="ij"))
+    a, b, c, d = i * (n + 1) + j, (i + 1) * (n + 1) + j, (i + 1) * (n + 1) + j + 1, i * (n + 1) + j + 1
+    F = np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+    return np.column_stack([x, y, 0.1 * np.sin(3 * x) * np.cos(2 * y)]), F
+
+
+MESHES = {"height field": height_field, "sphere cap with a hole": sphere_cap, "regular grid": regular_grid}
 
 
 def diagonal(V: np.ndarray) -> float:
