@@ -175,3 +175,17 @@ def test_a_truncated_ascii_stl_is_refused_as_truncated(tmp_path, capsys):
     """Read before as a file of no faces ("has no faces (0 vertices)")."""
     assert_same_mesh(tmp_path, "m.stl", stl_ascii(), TRIANGLES)
     assert_refused(tmp_path, capsys, "cut.stl", stl_ascii()[:-300], "as ASCII STL it has no 'endsolid' line")
+
+
+# ================================================================================ GLB
+def test_a_glb_of_points_or_lines_is_refused_naming_its_primitives(tmp_path, capsys):
+    """A scanner app's point cloud as GLB read as "has no faces (0 vertices)": trimesh keeps no points or lines
+    when asked for a mesh. Its primitives' kinds are named."""
+    import trimesh
+
+    for name, geometry, kind in (("points.glb", trimesh.PointCloud(V), "points (mode 0)"),
+                                 ("lines.glb", trimesh.load_path(V[:8].reshape(4, 2, 3)), "lines (mode 1)")):
+        folder = tmp_path / name.split(".")[0]
+        folder.mkdir()
+        assert_refused(folder, capsys, name, trimesh.Scene(geometry).export(file_type="glb"),
+                       f"its primitives are {kind}, not triangles")

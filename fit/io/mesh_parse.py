@@ -663,6 +663,9 @@ def read_trimesh(path: Path, ext: str) -> tuple[np.ndarray, np.ndarray, bool]:
         raise _unreadable(path, f"holds no triangle mesh (got {type(mesh).__name__})")
     V = np.asarray(mesh.vertices, dtype=np.float64)
     F = np.asarray(mesh.faces, dtype=np.int64)
+    if not F.size and ext in (".glb", ".gltf") and (kinds := _gltf_other_primitives(path)):
+        raise _unreadable(path, f"its primitives are {kinds}, not triangles (glTF modes 4 and 5 are read); "
+                                "trispline fits triangle meshes")
     if ext == ".stl" and F.size:
         corners = V[F.ravel()]
         _, first, inv = np.unique(corners, axis=0, return_index=True, return_inverse=True)
@@ -672,3 +675,26 @@ def read_trimesh(path: Path, ext: str) -> tuple[np.ndarray, np.ndarray, bool]:
         V = corners[first[order]]
         F = rank[inv.ravel()].reshape(-1, 3)
     return V, F, single
+
+
+#: glTF primitive modes other than triangle lists (4) and strips (5), by name.
+_GLTF_MODES = {0: "points", 1: "lines", 2: "line loops", 3: "line strips", 6: "triangle fans"}
+
+
+def _gltf_other_primitives(path: Path) -> str:
+    """The kinds of a glTF / GLB file's primitives that trimesh reads no faces from (points, lines, fans), as
+    ``"points (mode 0)"``; "" when there are none or the file's JSON cannot be read."""
+    import json
+
+    try:
+        data = path.read_bytes()
+        if data[:4] == b"glTF":  # binary: 12-byte header, then the JSON chunk's length and type
+            length, kind = struct.unpack_from("<I4s", data, 12)
+            text = data[20:20 + length] if kind == b"JSON" else b"{}"
+        else:
+            text = data
+        meshes = json.loads(text).get("meshes", [])
+        modes = sorted({int(p.get("mode", 4)) for m in meshes for p in m.get("primitives", [])} - {4, 5})
+    except (OSError, ValueError, TypeError, AttributeError, struct.error):
+        return ""
+    return ", ".join(f"{_GLTF_MODES.get(m, 'unknown')} (mode {m})" for m in modes)
