@@ -188,4 +188,4 @@ def test_a_glb_of_points_or_lines_is_refused_naming_its_primitives(tmp_path, cap
         folder = tmp_path / name.split(".")[0]
         folder.mkdir()
         assert_refused(folder, capsys, name, trimesh.Scene(geometry).export(file_type="glb"),
-                       f"its primitives are {kind}, not triangles")
+                       f"its primitives are {kind}: only triangle lists and strips")

@@ -664,8 +664,8 @@ def read_trimesh(path: Path, ext: str) -> tuple[np.ndarray, np.ndarray, bool]:
     V = np.asarray(mesh.vertices, dtype=np.float64)
     F = np.asarray(mesh.faces, dtype=np.int64)
     if not F.size and ext in (".glb", ".gltf") and (kinds := _gltf_other_primitives(path)):
-        raise _unreadable(path, f"its primitives are {kinds}, not triangles (glTF modes 4 and 5 are read); "
-                                "trispline fits triangle meshes")
+        raise _unreadable(path, f"its primitives are {kinds}: only triangle lists and strips (glTF modes 4 and 5) "
+                                "are read; trispline fits triangle meshes")
     if ext == ".stl" and F.size:
         corners = V[F.ravel()]
         _, first, inv = np.unique(corners, axis=0, return_index=True, return_inverse=True)
