@@ -148,7 +148,7 @@ def fit_surface(
     uv : (nv, 2) float, optional
         The domain. When given it is used as is (e.g. ``V[:, :2]`` for a height
         field) and ``param`` is ignored; faces are reversed if all are clockwise.
-    param : {"lscm", "harmonic", "slim", "uv", "auto"} or Parameterization
+    param : {"lscm", "spectral", "harmonic", "slim", "uv", "auto"} or Parameterization
         Parameterization method when ``uv`` is None (see :mod:`trispline.param`). The
         default (``trispline.param.DEFAULT_METHOD``, ``lscm``: free boundary) keeps corners of the
         outline undistorted; on the shared real meshes it gave far smaller extreme curvature than

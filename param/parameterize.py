@@ -23,7 +23,7 @@ from trispline.spline.util.progress import Report, silent, span
 from .distortion import TANGLE_SEGMENTS, face_distortion, fold_mask, outline_crossings, score, summarize, warning
 from .domain import UVTransform, normalise
 from .errors import MeshError
-from .methods import MAPS, raw_map
+from .methods import FREE_BOUNDARY_MAPS, MAPS, raw_map
 from .repair import polygon_area, repair_folds
 from .polymap import smoothest_map
 from .smooth import smooth_uv
@@ -134,9 +134,10 @@ def parameterize(
     ----------
     V : (nv, 3) float64
     F : (nf, 3) int
-    method : {"lscm", "harmonic", "slim", "uv", "auto"}
+    method : {"lscm", "spectral", "harmonic", "slim", "uv", "auto"}
         ``lscm`` (:data:`DEFAULT_METHOD`): least squares conformal, two far-apart boundary
-        vertices pinned, free boundary. ``harmonic``: outer loop to the unit circle by arc
+        vertices pinned, free boundary. ``spectral``: the same energy without pins (the spectral
+        conformal map), so that the map does not depend on the file's face order. ``harmonic``: outer loop to the unit circle by arc
         length, interior harmonic (cotangent weights), holes filled for the solve.
         ``slim``: the conformal (MIPS) energy minimised by SLIM from the Tutte embedding:
         nearly as conformal as LSCM, free boundary, and fold-free by construction (slower:
@@ -347,7 +348,7 @@ def _unfold(vm: ValidatedMesh, raw: np.ndarray, method: str, no_uv: bool, repair
     if not repair:
         raise MeshError(f"the {method} parameterization folds {n_flip + n_deg} triangles: {what}; "
                         f"enable repair or choose another method{hint}", ["folded"])
-    free_boundary = method in ("lscm", "slim")
+    free_boundary = method in FREE_BOUNDARY_MAPS
     alt = _global_alternative(vm, method, span(report, 0.0, 0.9), embedded) if free_boundary else None
     raw, repaired = (alt[0], alt[1]) if alt is not None else repair_folds(vm, raw, method)
     messages.append(f"the {method} map had {what}; repaired with a {repaired} map{hint}")
@@ -360,7 +361,7 @@ def _unsliver(vm: ValidatedMesh, raw: np.ndarray, method: str, repair: bool, mes
     the mesh into slivers too thin to fit (:func:`~trispline.param.validate.map_slivers`; LSCM on an open
     cylinder of tall triangles: aspect 6e12) gives way to the least sheared harmonic or SLIM map without
     them, as a folded one does; else it stays (and a fit refuses it, naming the map)."""
-    if method not in ("lscm", "slim") or not repair:
+    if method not in FREE_BOUNDARY_MAPS or not repair:
         return raw, None
     bad = map_slivers(vm.V, raw, vm.F)
     if not bad.any():

@@ -710,6 +710,7 @@ def test_a_triangle_too_thin_for_float64_is_bad_input_naming_it(tmp_path, capfd)
 
 @pytest.mark.parametrize("mode, match", [((), "lscm map of this mesh is undefined"),
                                          (("--param", "harmonic"), "slivers too thin to fit"),
+                                         (("--param", "spectral"), "slivers too thin to fit"),
                                          (("--tolerance-rel", "0.01"), "lscm map of this mesh is undefined"),
                                          (("--tolerance-rel", "0.01", "--param", "harmonic"),
                                           "too thin for a coarse domain")])

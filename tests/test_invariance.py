@@ -161,10 +161,10 @@ def same_surface(a, b, old: np.ndarray, rng: np.random.Generator) -> float:
 LSCM_PINS = pytest.mark.xfail(strict=False, reason=(
     "param.methods.far_apart starts its farthest-point sweeps at the outline's first vertex, which the face "
     "order and orientation choose, and LSCM's map depends on its two pins beyond a similarity: the cap's "
-    "surface moves by 7e-4 of the diagonal when its faces are shuffled"))
+    "surface moves by 7e-4 of the diagonal when its faces are shuffled; the spectral map has no pins"))
 
 
-@pytest.mark.parametrize("param", [pytest.param("lscm", marks=LSCM_PINS), "harmonic"])
+@pytest.mark.parametrize("param", [pytest.param("lscm", marks=LSCM_PINS), "spectral", "harmonic"])
 @pytest.mark.parametrize("how", ["vertices renumbered", "faces shuffled", "faces flipped"])
 def test_fit_does_not_depend_on_how_the_file_lists_the_mesh(param, how):
     V, F, base = fitted("sphere cap with a hole", param)

@@ -1,6 +1,6 @@
 """``trispline fit`` and ``trispline demo``: load (or generate) a mesh, validate, fit, write atomically.
 
-    trispline fit MESH -o SURFACE.npz [--param lscm|harmonic|slim|uv|auto] [--repair | --keep-largest]
+    trispline fit MESH -o SURFACE.npz [--param lscm|spectral|harmonic|slim|uv|auto] [--repair | --keep-largest]
                   [--bend W ...] [--mesh-out FILE [--resolution N]] [--image PNG] [--control-net FILE]
     trispline fit --example -o SURFACE.npz                # the built-in synthetic scan
     trispline demo [-o DIR]                               # the example, with every output in DIR
@@ -111,7 +111,8 @@ def add_parsers(sub: Any) -> None:
 def _add_fit_options(p: argparse.ArgumentParser, outputs: bool = True) -> None:
     """The fit's options; ``outputs``: also --mesh-out / --image / --control-net (fit, not demo)."""
     p.add_argument("--param", choices=METHODS, default=DEFAULT_METHOD,
-                   help=f"parameterization (default {DEFAULT_METHOD}): lscm (conformal, free boundary), harmonic "
+                   help=f"parameterization (default {DEFAULT_METHOD}): lscm (conformal, free boundary), spectral (conformal, "
+                        "free boundary, no pinned vertices: the same map whatever the file's face order), harmonic "
                         "(boundary on a circle), slim (conformal and fold-free by construction; slower), uv (the "
                         "OBJ's texture coordinates, or x, y of a height field; the surface file's uv is then "
                         "exactly yours), auto (lscm unless it folds or is strongly distorted, else the least "

@@ -14,13 +14,14 @@ import importlib.util
 import os
 import sys
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["SPD_BACKENDS", "SPD_PARDISO_MIN", "c_stdout_silenced", "point_pypardiso_at_mkl", "solve_spd", "spd_backend"]
+__all__ = ["SPD_BACKENDS", "SPD_PARDISO_MIN", "c_stdout_silenced", "point_pypardiso_at_mkl", "solve_spd", "spd_backend",
+           "spd_factor"]
 
 #: The backends of :func:`solve_spd`.
 SPD_BACKENDS = ("pardiso", "cholespy")
@@ -71,8 +72,18 @@ def solve_spd(A: sp.spmatrix, b: np.ndarray, *, backend: str | None = None,
     (:func:`spd_backend`'s rule, with ``pardiso_min``). Raises :class:`numpy.linalg.LinAlgError`
     when ``A`` is not positive definite (either backend).
     """
+    with spd_factor(A, backend=backend, pardiso_min=pardiso_min) as solve:
+        return solve(b)
+
+
+@contextmanager
+def spd_factor(A: sp.spmatrix, *, backend: str | None = None, pardiso_min: int = SPD_PARDISO_MIN
+               ) -> Iterator[Callable[[np.ndarray], np.ndarray]]:
+    """:func:`solve_spd`'s factorisation of ``A (n, n)`` kept for several right-hand sides: yields
+    ``solve(b) -> A^{-1} b`` (``b (n,)`` or ``(n, k)``), valid inside the ``with`` block (PARDISO's
+    memory is freed at its end). Raises :class:`numpy.linalg.LinAlgError` when ``A`` is not positive
+    definite (at the factorisation or, for PARDISO, the first solve)."""
     n = A.shape[0]
-    b = np.ascontiguousarray(b, dtype=np.float64)
     U = sp.triu(sp.csr_matrix(A, dtype=np.float64), format="csr")
     U.sum_duplicates()
     U.sort_indices()
@@ -81,26 +92,38 @@ def solve_spd(A: sp.spmatrix, b: np.ndarray, *, backend: str | None = None,
         import pypardiso
 
         solver = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite: the upper triangle
+
+        def solve(b: np.ndarray) -> np.ndarray:
+            try:
+                return np.asarray(solver.solve(U, np.ascontiguousarray(b, dtype=np.float64)), dtype=np.float64)
+            except pypardiso.pardiso_wrapper.PyPardisoError as exc:  # -4: a zero or negative pivot
+                raise np.linalg.LinAlgError(f"the matrix is not positive definite (PARDISO error {exc})") from exc
+
         try:
-            return np.asarray(solver.solve(U, b), dtype=np.float64)
-        except pypardiso.pardiso_wrapper.PyPardisoError as exc:  # -4: a zero or negative pivot
-            raise np.linalg.LinAlgError(f"the matrix is not positive definite (PARDISO error {exc})") from exc
+            yield solve
         finally:
             solver.free_memory(everything=True)
+        return
     import cholespy
 
     L = sp.csr_matrix(U.T)  # cholespy reads the lower triangle of a CSR matrix
     L.sort_indices()
-    x = np.zeros_like(b)
     try:
         with c_stdout_silenced():  # CHOLMOD prints its own warning to stdout before raising
-            cholespy.CholeskySolverD(n, L.indptr.astype(np.int32), L.indices.astype(np.int32),
-                                     np.ascontiguousarray(L.data), cholespy.MatrixType.CSR).solve(b, x)
+            factor = cholespy.CholeskySolverD(n, L.indptr.astype(np.int32), L.indices.astype(np.int32),
+                                              np.ascontiguousarray(L.data), cholespy.MatrixType.CSR)
     except ValueError as exc:  # cholespy's "Matrix is not positive definite!"
         if "positive definite" not in str(exc):
             raise
         raise np.linalg.LinAlgError(f"the matrix is not positive definite ({exc})") from exc
-    return x
+
+    def solve(b: np.ndarray) -> np.ndarray:
+        b = np.ascontiguousarray(b, dtype=np.float64)
+        x = np.zeros_like(b)
+        factor.solve(b, x)
+        return x
+
+    yield solve
 
 
 #: One redirection of descriptor 1 at a time: two overlapping ones would restore each other's null device.

@@ -11,7 +11,9 @@ from hypothesis import given, settings, strategies as st
 from trispline.param import (
     UVTransform, distortion_report, parameterize, reverse_faces, slim_uv, user_domain, validate_mesh,
 )
-from trispline.param.methods import far_apart, lscm_uv, raw_map
+from trispline.param.methods import far_apart, lscm_uv, raw_map, spectral_uv
+from trispline.param.validate import face_areas_3d
+from trispline.spline.topology import signed_areas
 from trispline.param.testing import bumpy_disk, lift, nearly_closed
 from trispline.spline.errors import InputError
 from trispline.spline.surface import SplineSurface
@@ -55,6 +57,34 @@ def test_lscm_of_a_large_scan_is_libigls_map():
     ref, _ = igl.lscm(vm.V, vm.F, *_pins(vm))
     uv = raw_map(vm, "lscm")
     assert np.abs(uv - ref).max() <= 1e-9 * np.abs(ref).max()
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_spectral_map_of_a_flat_mesh_is_a_similarity_of_it(seed):
+    """A conformal map of a planar mesh is the plane itself up to a similarity (the energy is 0 there), with no
+    mirror; the spectral map finds it without pins."""
+    uv0, F = random_delaunay(300, holes=1, seed=seed)
+    vm = validate_mesh(np.column_stack([uv0, np.zeros(len(uv0))]), F)
+    uv = spectral_uv(vm)
+    P1 = np.column_stack([uv0, np.ones(len(uv0))])
+    A, *_ = np.linalg.lstsq(P1, uv, rcond=None)
+    assert np.abs(P1 @ A - uv).max() <= 1e-8 * np.ptp(uv)
+    G = A[:2].T @ A[:2]  # a rotation times a scale: G = s^2 I, det > 0
+    assert np.abs(G - G[0, 0] * np.eye(2)).max() <= 1e-9 * G[0, 0] and np.linalg.det(A[:2]) > 0
+
+
+def test_the_spectral_map_of_a_scan_does_not_depend_on_its_face_order_or_the_backend():
+    """LSCM's two pins come from the outline's first vertex, which the face order picks; the spectral map has
+    none. 60k unknowns: PARDISO where installed, against cholespy. Scaled to the mesh's area."""
+    from trispline.fit.datasets.truth import truth_scan
+
+    s = truth_scan("bumps", 15_000, sigma=1e-3, outliers=0.005, outlier_sigmas=50.0, seed=1)
+    vm = validate_mesh(s.V, s.F)
+    uv = raw_map(vm, "spectral")
+    shuffled = raw_map(validate_mesh(s.V, s.F[np.random.default_rng(3).permutation(len(s.F))]), "spectral")
+    assert np.abs(shuffled - uv).max() <= 1e-8 * np.ptp(uv)
+    assert np.abs(spectral_uv(vm, backend="cholespy") - uv).max() <= 1e-8 * np.ptp(uv)
+    assert signed_areas(uv, vm.F).sum() == pytest.approx(face_areas_3d(vm.V, vm.F).sum(), rel=1e-9)
 
 
 # ------------------------------------------------------------------------------ slim
