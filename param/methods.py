@@ -93,10 +93,15 @@ def lscm_uv(vm: ValidatedMesh, pins: np.ndarray, at: np.ndarray, *, backend: str
     try:
         x[free] = solve_spd(Qf[:, free], -(Qf[:, fixed] @ values), backend=backend)
     except np.linalg.LinAlgError:  # a singular conformal energy: faces of (nearly) no area
-        why = sliver_message(vm.V, vm.F) or "the mesh is nearly degenerate"
-        raise MeshError(f"the lscm map of this mesh is undefined (its system is singular): {why}",
-                        ["degenerate"]) from None
+        raise _undefined(vm, "lscm", "its system is singular") from None
     return x.reshape(2, nv).T.copy()
+
+
+def _undefined(vm: ValidatedMesh, method: str, why: str) -> MeshError:
+    """The error of a map whose conformal energy is singular on ``vm``: its thin triangles named where
+    :func:`~.validate.sliver_message` finds them."""
+    what = sliver_message(vm.V, vm.F) or "the mesh is nearly degenerate"
+    return MeshError(f"the {method} map of this mesh is undefined ({why}): {what}", ["degenerate"])
 
 
 #: The shift of :func:`spectral_uv`'s eigenproblem, relative to the mean diagonal of the conformal energy:
@@ -128,9 +133,7 @@ def spectral_uv(vm: ValidatedMesh, *, backend: str | None = None) -> np.ndarray:
             op = LinearOperator(Q.shape, matvec=solve, dtype=np.float64)
             values, vectors = eigsh(Q, k=4, M=B, sigma=-shift, OPinv=op, which="LM", tol=1e-12, v0=np.ones(2 * nv))
     except (np.linalg.LinAlgError, ArpackNoConvergence, ArpackError):  # faces of (nearly) no area
-        why = sliver_message(V, F) or "the mesh is nearly degenerate"
-        raise MeshError(f"the spectral map of this mesh is undefined (its eigenproblem is singular): {why}",
-                        ["degenerate"]) from None
+        raise _undefined(vm, "spectral", "its eigenproblem is singular") from None
     uv = vectors[:, np.argsort(values)[2]].reshape(2, nv).T  # after the two translations
     return _canonical(uv, F, float(face_areas_3d(V, F).sum()))
 
