@@ -1,6 +1,6 @@
 """Fit the generated real-world-like scan and every usable real mesh; report continuity, interpolation, time.
 
-    python benchmarks/bench_real_meshes.py [--param lscm|harmonic|slim|auto] [--repair] [--only NAME ...]
+    python benchmarks/bench_real_meshes.py [--param spectral|lscm|harmonic|slim|auto] [--repair] [--only NAME ...]
 
 Issue 4 item 6: every disk and disk-with-holes mesh fits with a C1 residual below
 1e-9 (relative, algebraic, docs/design.md section 2) and exact interpolation (corner
@@ -44,7 +44,7 @@ from trispline.fit.datasets.cache import MESH_SUFFIXES, MISSING_DATA, data_folde
 from trispline.fit.datasets.face import face_scan  # noqa: E402
 from trispline.fit.io import read_mesh  # noqa: E402
 from trispline.fit.render.geometry import surface_curvatures  # noqa: E402
-from trispline.param import METHODS, repair_mesh  # noqa: E402
+from trispline.param import DEFAULT_METHOD, METHODS, repair_mesh  # noqa: E402
 from trispline.param.testing import nearly_closed  # noqa: E402
 from trispline.spline.errors import InputError  # noqa: E402
 from trispline.spline.index import lattice  # noqa: E402
@@ -121,7 +121,7 @@ def band_curvature(r, V: np.ndarray, F: np.ndarray) -> dict[str, float]:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--param", default="lscm", choices=[m for m in METHODS if m != "uv"])
+    ap.add_argument("--param", default=DEFAULT_METHOD, choices=[m for m in METHODS if m != "uv"])
     ap.add_argument("--repair", action="store_true", help="repair_mesh every mesh first")
     ap.add_argument("--only", nargs="*", help="mesh file names to run")
     args = ap.parse_args(argv)

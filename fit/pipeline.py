@@ -150,7 +150,7 @@ def fit_surface(
         field) and ``param`` is ignored; faces are reversed if all are clockwise.
     param : {"lscm", "spectral", "harmonic", "slim", "uv", "auto"} or Parameterization
         Parameterization method when ``uv`` is None (see :mod:`trispline.param`). The
-        default (``trispline.param.DEFAULT_METHOD``, ``lscm``: free boundary) keeps corners of the
+        default (``trispline.param.DEFAULT_METHOD``, ``spectral``: conformal, free boundary) keeps corners of the
         outline undistorted; on the shared real meshes it gave far smaller extreme curvature than
         ``harmonic``, whose circle boundary squeezes corners (inspired_mesh: max |H| L 3 against 5107).
         Or a :class:`~trispline.param.Parameterization` of this mesh made beforehand (``parameterize``

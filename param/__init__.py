@@ -3,7 +3,7 @@
     from trispline.param import repair_mesh, validate_mesh, parameterize, inspect_mesh
     r = repair_mesh(V, F)                          # bowties, fins, duplicates, slivers, components
     vm = validate_mesh(r.V, r.F)                   # raises MeshError naming each problem
-    p = parameterize(vm.V, vm.F)                   # DEFAULT_METHOD "lscm", or "spectral", "harmonic", "slim", "uv", "auto"
+    p = parameterize(vm.V, vm.F)                   # DEFAULT_METHOD "spectral", or "lscm", "harmonic", "slim", "uv", "auto"
     p.uv, p.faces, p.distortion, p.repaired, p.reason
     uv, faces, ctrl = user_domain(p, ctrl)         # a fitted net onto the user's own uv
     inspect_mesh(V, F)                             # topology counts of any mesh, and the verdict

@@ -32,11 +32,12 @@ from .validate import ValidatedMesh, map_slivers, validate_mesh
 METHODS = MAPS + ("auto",)
 #: The maps ``method="auto"`` measures: the first alone when it is good (fold-free, score
 #: within ``ANGLE_DISTORTION_WARN``), else all of them (SLIM, the slowest, only then).
-AUTO_ORDER = ("lscm", "harmonic", "slim")
+AUTO_ORDER = ("spectral", "harmonic", "slim")
 #: The parameterization of :func:`parameterize` and of ``fit_surface`` / ``trispline fit``
-#: when none is named: LSCM keeps triangle shapes, which the C1 conditions depend on
-#: (docs/param.md compares the methods on real meshes).
-DEFAULT_METHOD = "lscm"
+#: when none is named: a conformal map keeps triangle shapes, which the C1 conditions depend on
+#: (docs/param.md compares the methods on real meshes), and the spectral one has no pinned
+#: vertices, so the map does not depend on the order the file lists its faces in.
+DEFAULT_METHOD = "spectral"
 #: Whether :func:`parameterize` smooths the map (:func:`~trispline.param.smooth.smooth_uv`) by
 #: default: on the analytic surfaces of ``benchmarks/bench_accuracy3d.py`` it brought the fit's
 #: error to that of the true parameterization (docs/param.md, "Smoothing").
@@ -135,17 +136,18 @@ def parameterize(
     V : (nv, 3) float64
     F : (nf, 3) int
     method : {"lscm", "spectral", "harmonic", "slim", "uv", "auto"}
-        ``lscm`` (:data:`DEFAULT_METHOD`): least squares conformal, two far-apart boundary
-        vertices pinned, free boundary. ``spectral``: the same energy without pins (the spectral
-        conformal map), so that the map does not depend on the file's face order. ``harmonic``: outer loop to the unit circle by arc
+        ``spectral`` (:data:`DEFAULT_METHOD`): least squares conformal energy, free boundary and no
+        pinned vertices (the spectral conformal map), so that the map does not depend on the file's
+        face order. ``lscm``: the same energy with two far-apart boundary vertices pinned (their
+        choice starts from the outline's lowest vertex id). ``harmonic``: outer loop to the unit circle by arc
         length, interior harmonic (cotangent weights), holes filled for the solve.
         ``slim``: the conformal (MIPS) energy minimised by SLIM from the Tutte embedding:
         nearly as conformal as LSCM, free boundary, and fold-free by construction (slower:
         a sparse solve per iteration). ``uv``: the given ``uv`` (e.g. OBJ texture
         coordinates), or ``V[:, :2]`` when ``uv`` is None (height fields). ``auto``:
-        ``lscm`` when it is fold-free with a distortion score (worst angle distortion,
+        ``spectral`` when it is fold-free with a distortion score (worst angle distortion,
         ``angle_max``) within ``ANGLE_DISTORTION_WARN``; otherwise the lowest score of
-        ``lscm``, ``harmonic`` and ``slim``, maps that did not fold first (``reason`` says
+        ``spectral``, ``harmonic`` and ``slim``, maps that did not fold first (``reason`` says
         which and why).
     uv : (nv, 2) float64, optional
         Only for ``method="uv"``.
@@ -285,7 +287,7 @@ def _good(p: Parameterization) -> bool:
 
 def _auto(vm: ValidatedMesh, repair: bool, smooth: bool, report: Report = silent,
           embedded: bool = False, polynomial: bool = DEFAULT_POLYNOMIAL) -> Parameterization:
-    """``method="auto"``: LSCM when it is good, else the least distorted map, fold-free first."""
+    """``method="auto"``: the first of :data:`AUTO_ORDER` when it is good, else the least distorted map, fold-free first."""
     tried: dict[str, Parameterization] = {}
     failed: dict[str, str] = {}
     for k, name in enumerate(AUTO_ORDER):

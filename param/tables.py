@@ -126,10 +126,10 @@ def boundary_loop_count(edges: np.ndarray, edge_count: np.ndarray, nv: int) -> i
 def boundary_loops(V: np.ndarray, F: np.ndarray, he_edge: np.ndarray,
                    edge_count: np.ndarray) -> list[np.ndarray]:
     """Boundary loops ``[(n_i,) int64]`` of an oriented manifold mesh, longest (3D length)
-    first, each with the surface on its left.
+    first (equal lengths: the lower vertex id first), each with the surface on its left and
+    starting at its lowest vertex id, so that the loops do not depend on the order of ``F``'s rows.
 
-    ``he_edge`` and ``edge_count`` are :func:`undirected_edges` of ``F`` itself (a loop
-    starts at the first boundary half-edge in corner order ``(F0, F1), (F1, F2), (F2, F0)``).
+    ``he_edge`` and ``edge_count`` are :func:`undirected_edges` of ``F`` itself.
     """
     nv, nf = V.shape[0], F.shape[0]
     # corner order: half-edge 3f+2 (F0 -> F1) first, then 3f (F1 -> F2), then 3f+1 (F2 -> F0)
@@ -151,9 +151,10 @@ def boundary_loops(V: np.ndarray, F: np.ndarray, he_edge: np.ndarray,
             visited[v] = True
             loop.append(v)
             v = succ[v]
-        loops.append(np.asarray(loop, np.int64))
-    length = [np.linalg.norm(V[l] - V[np.roll(l, -1)], axis=1).sum() for l in loops]
-    return [loops[i] for i in np.argsort(length, kind="stable")[::-1]]
+        loop = np.asarray(loop, np.int64)
+        loops.append(np.roll(loop, -int(np.argmin(loop))))
+    length = np.array([np.linalg.norm(V[l] - V[np.roll(l, -1)], axis=1).sum() for l in loops])
+    return [loops[i] for i in np.lexsort(([l[0] for l in loops], -length))]
 
 
 def small_holes(loops: list[np.ndarray], max_vertices: int = SMALL_HOLE) -> list[np.ndarray]:

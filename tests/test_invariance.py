@@ -100,7 +100,7 @@ def stored(V: np.ndarray, t: np.ndarray) -> np.ndarray:
     return (V + t) - t
 
 
-@pytest.mark.parametrize("param", ["lscm", "harmonic"])
+@pytest.mark.parametrize("param", ["spectral", "harmonic"])
 @pytest.mark.parametrize("mesh", list(MESHES))
 @pytest.mark.parametrize("move", MOTIONS)
 def test_fit_moves_and_scales_with_the_mesh(mesh, param, move):
@@ -158,14 +158,16 @@ def same_surface(a, b, old: np.ndarray, rng: np.random.Generator) -> float:
     return float(np.abs(b.surface.evaluate(np.arange(len(fb)), bary) - a.surface.evaluate(fa, bary_a)).max())
 
 
-LSCM_PINS = pytest.mark.xfail(strict=False, reason=(
-    "param.methods.far_apart starts its farthest-point sweeps at the outline's first vertex, which the face "
-    "order and orientation choose, and LSCM's map depends on its two pins beyond a similarity: the cap's "
-    "surface moves by 7e-4 of the diagonal when its faces are shuffled; the spectral map has no pins"))
+LSCM_PINS = pytest.mark.xfail(strict=True, reason=(
+    "param.methods.far_apart starts its farthest-point sweeps at the outline's lowest vertex id, and LSCM's map "
+    "depends on its two pins beyond a similarity: renumbered vertices move the pins (the face order does not); "
+    "the spectral map has no pins"))
+LISTINGS = [(param, how) for param in ("lscm", "spectral", "harmonic")
+            for how in ("vertices renumbered", "faces shuffled", "faces flipped")]
 
 
-@pytest.mark.parametrize("param", [pytest.param("lscm", marks=LSCM_PINS), "spectral", "harmonic"])
-@pytest.mark.parametrize("how", ["vertices renumbered", "faces shuffled", "faces flipped"])
+@pytest.mark.parametrize("param, how", [pytest.param(*case, marks=LSCM_PINS) if case == ("lscm", "vertices renumbered")
+                                        else case for case in LISTINGS])
 def test_fit_does_not_depend_on_how_the_file_lists_the_mesh(param, how):
     V, F, base = fitted("sphere cap with a hole", param)
     rng = np.random.default_rng(11)
@@ -215,3 +217,23 @@ def test_approximation_makes_the_same_choices_wherever_the_mesh_lies(how, move):
         assert dev[key] / s == pytest.approx(dev0[key], abs=1e-7 * diagonal(V)), key
     assert res.energies["bend"] / s**2 == pytest.approx(base.energies["bend"], rel=1e-6)
     assert np.abs((res.ctrl - t) @ R / s - base.ctrl).max() <= 1e-6 * diagonal(V)
+
+
+FLIPPED_OUTLINE = pytest.mark.xfail(strict=True, reason=(
+    "the outline's thinning (fit.approx.boundary.thin_loop) spaces its kept vertices walking each loop in its "
+    "orientation: a scan with every face flipped has its loops reversed and keeps other outline vertices"))
+
+
+@pytest.mark.parametrize("how", ["faces shuffled", pytest.param("faces flipped", marks=FLIPPED_OUTLINE)])
+def test_approximation_does_not_depend_on_the_face_order(how):
+    """The default map has no pins and every boundary loop starts at its lowest vertex id, so the coarse
+    vertices, the verdict and the surface are those of the file's own order (halftunnel.off met its tolerance
+    in its file's order and missed it by 1.4x shuffled, when LSCM's pins followed the first boundary edge)."""
+    V, F, kw, base = approximated("tolerance")
+    W, G, _ = permuted(V, F, how, np.random.default_rng(5))
+    res = approximate_surface(W, G, **kw)
+    assert np.array_equal(np.sort(res.vertices), np.sort(base.vertices))
+    for key in ("vertices", "patches", "met", "stop", "rejected", "rounds"):
+        assert res.stats[key] == base.stats[key], key
+    for key in ("max", "rms"):
+        assert res.stats["deviation"][key] == pytest.approx(base.stats["deviation"][key], abs=1e-9 * diagonal(V))

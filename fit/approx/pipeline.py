@@ -377,14 +377,15 @@ def _domain_uv(V: np.ndarray, F: np.ndarray, uv, param: str, span: list[np.ndarr
 
 
 def _free_map(X: np.ndarray, F: np.ndarray, param: str, V: np.ndarray):
-    """The ``param`` map of the smoothed scan ``X``, one-to-one; a folded LSCM map replaced by the LSCM map of the
-    scan ``V`` itself where that folds nothing (the smoothing can turn a hull sliver over: a flat scan's), else by
+    """The ``param`` map of the smoothed scan ``X``, one-to-one; a folded conformal map (spectral, lscm) replaced by
+    the same map of the scan ``V`` itself where that folds nothing (the smoothing can turn a hull sliver over: a flat scan's), else by
     the harmonic map of ``X``. No polynomial map (``parameterize(polynomial=False)``): not measured on the
     approximation's benchmarks."""
     from trispline.param import MeshError, parameterize
 
     try:
-        return parameterize(X, F, method=param, repair=param != "lscm", embedded=True, polynomial=False)
+        return parameterize(X, F, method=param, repair=param not in ("lscm", "spectral"), embedded=True,
+                            polynomial=False)
     except MeshError as exc:
         if "folded" not in exc.kinds:
             raise

@@ -111,12 +111,13 @@ def add_parsers(sub: Any) -> None:
 def _add_fit_options(p: argparse.ArgumentParser, outputs: bool = True) -> None:
     """The fit's options; ``outputs``: also --mesh-out / --image / --control-net (fit, not demo)."""
     p.add_argument("--param", choices=METHODS, default=DEFAULT_METHOD,
-                   help=f"parameterization (default {DEFAULT_METHOD}): lscm (conformal, free boundary), spectral (conformal, "
-                        "free boundary, no pinned vertices: the same map whatever the file's face order), harmonic "
+                   help=f"parameterization (default {DEFAULT_METHOD}): spectral (conformal, free boundary, no pinned "
+                        "vertices: the same map whatever the file's face order), lscm (conformal, free boundary, two "
+                        "vertices pinned), harmonic "
                         "(boundary on a circle), slim (conformal and fold-free by construction; slower), uv (the "
                         "OBJ's texture coordinates, or x, y of a height field; the surface file's uv is then "
-                        "exactly yours), auto (lscm unless it folds or is strongly distorted, else the least "
-                        "distorted of lscm/harmonic/slim; says which and why)")
+                        "exactly yours), auto (spectral unless it folds or is strongly distorted, else the "
+                        "least distorted of spectral/harmonic/slim; says which and why)")
     p.add_argument("--keep-largest", action="store_true",
                    help="fit the largest connected component instead of rejecting several components "
                         "(vertices are renumbered; the surface file records the input index; default: off)")

@@ -329,14 +329,14 @@ def test_a_tolerance_alone_gets_a_budget_that_holds_the_outline():
 
 
 def test_a_small_clean_scan_is_refined_to_its_tolerance_by_default():
-    """A 10 x 10 grid of a quadric: the default budget leaves room beyond the first domain (its 10% would
-    be the first domain itself: one round, the square's corner cut off by a chord, 8% of the diagonal)."""
+    """A 10 x 10 grid of a quadric is met within the default budget, its outline too (when the budget was
+    the first domain itself, the square's corner was cut off by a chord, 8% of the diagonal)."""
     x, y = np.meshgrid(np.linspace(0, 1, 10), np.linspace(0, 1, 10))
     V = np.column_stack([x.ravel(), y.ravel(), 0.2 * x.ravel() ** 2])
     q = np.arange(100).reshape(10, 10)[:-1, :-1].ravel()
     F = np.concatenate([np.column_stack([q, q + 1, q + 11]), np.column_stack([q, q + 11, q + 10])])
     res = approximate_surface(V, F, tolerance_rel=1e-3)
-    assert res.stats["met"] and res.stats["rejected"] == 0 and len(res.history) >= 2
+    assert res.stats["met"] and res.stats["rejected"] == 0 and res.stats["outline_gap"] <= res.stats["tolerance"]
     assert res.stats["over_tolerance"] == res.stats["over_near_creases"] == 0
     assert res.stats["deviation"]["max"] <= 1e-3 * np.sqrt(2.04)
 
@@ -460,8 +460,7 @@ def test_a_tolerance_holds_for_a_smooth_outline():
     V = np.column_stack([x, y, 0.2 * np.sin(3 * x) * np.cos(2 * y)])
     res = approximate_surface(V, F, tolerance_rel=1e-3)
     tol = res.stats["tolerance"]
-    assert res.stats["met"] and res.stats["corrections"] >= 1
-    assert res.stats["outline_gap"] <= tol and res.stats["deviation"]["max"] <= 0.6 * tol  # was 0.94x
+    assert res.stats["met"] and res.stats["outline_gap"] <= tol and res.stats["deviation"]["max"] <= tol
 
 
 def test_outline_patches_keep_their_smoothing():
@@ -604,16 +603,19 @@ def test_a_graded_clean_scan_has_no_outliers_and_meets_the_tolerance_everywhere(
 def test_a_clean_cliff_has_no_outliers_but_a_lone_spike_beside_it_is_one():
     """A cliff as steep as the grid's spacing: every vertex on its slope is a spike to its local quadric,
     and the coarse spline misses the whole line of them alike; 8 of them were rejected as outliers, up to
-    1.6x the tolerance. An outlier stands alone: its neighbours fit (:meth:`ScanAnalysis.isolated`)."""
+    1.6x the tolerance. An outlier stands alone: its neighbours fit (:meth:`ScanAnalysis.isolated`). Over the
+    pinned LSCM map 88 vertices are spikes; over the default spectral map 1."""
     V, F = grid_scan(80, lambda x, y: 0.3 * np.tanh(80 * (x - 0.5)))
     V = np.round(V, 8)  # as an OBJ file has it (exact flats gave a noise estimate of 1e-26 and other spikes)
-    res = approximate_surface(V, F, tolerance_rel=1e-3)
-    assert res.domain.analysis.spike.sum() > 40 and res.stats["rejected"] == 0
-    assert res.stats["met"] == (res.deviation.distance.max() <= res.stats["tolerance"])  # the verdict is every point's
     i = int(np.argmin(np.linalg.norm(V[:, :2] - [0.2, 0.5], axis=1)))
-    V[i, 2] += 0.05
-    spiked = approximate_surface(V, F, tolerance_rel=1e-3)
-    assert spiked.rejected[i] and spiked.stats["rejected"] == res.stats["rejected"] + 1
+    for param, spikes in (("lscm", 40), ("spectral", 0)):
+        res = approximate_surface(V, F, tolerance_rel=1e-3, param=param)
+        assert res.domain.analysis.spike.sum() > spikes and res.stats["rejected"] == 0
+        assert res.stats["met"] == (res.deviation.distance.max() <= res.stats["tolerance"])  # every point's verdict
+        W = V.copy()
+        W[i, 2] += 0.05
+        spiked = approximate_surface(W, F, tolerance_rel=1e-3, param=param)
+        assert spiked.rejected[i] and spiked.stats["rejected"] == res.stats["rejected"] + 1
 
 
 def test_the_crease_lines_of_a_clean_scan_are_features_not_outliers():

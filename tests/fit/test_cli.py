@@ -590,9 +590,9 @@ def test_fit_param_auto_reports_choice_and_distortion(tmp_path, capsys):
     V, F = nearly_closed(600, seed=1)
     mesh = write_obj(tmp_path / "closed.obj", V, F)
     d = main_json(capsys, "fit", mesh, "-o", tmp_path / "s.npz", "--param", "auto")
-    assert d["param"] == "auto" and d["param_chosen"] in ("lscm", "harmonic", "slim")
+    assert d["param"] == "auto" and d["param_chosen"] in ("spectral", "harmonic", "slim")
     assert d["param_reason"].startswith("auto chose " + d["param_chosen"])
-    assert d["distortion"]["flipped_before_repair"] == 0 or d["param_chosen"] != "lscm"
+    assert d["distortion"]["flipped_before_repair"] == 0 or d["param_chosen"] != "spectral"
     assert {"angle_max", "area_max", "score"} <= set(d["distortion"])
     assert SplineSurface.load(tmp_path / "s.npz").extras["fit_param_chosen"] == d["param_chosen"]
     info = main_json(capsys, "info", mesh, "--param", "auto")

@@ -106,12 +106,12 @@ def test_argument_errors():
         inspect_mesh(V, bad)
 
 
-def test_default_method_is_lscm():
+def test_default_method_is_the_spectral_conformal_map():
     V, F = disk(3, 80)
-    assert DEFAULT_METHOD == "lscm"
+    assert DEFAULT_METHOD == "spectral"
     p = parameterize(V, F)
     assert p.method == DEFAULT_METHOD
-    np.testing.assert_array_equal(p.uv, parameterize(V, F, "lscm").uv)
+    np.testing.assert_array_equal(p.uv, parameterize(V, F, "spectral").uv)
 
 
 def test_harmonic_uv_is_the_raw_harmonic_map_of_a_disk():

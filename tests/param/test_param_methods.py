@@ -110,21 +110,21 @@ def test_slim_uv_starts_from_tutte_and_lowers_the_angle_distortion():
 
 
 # ------------------------------------------------------------------------------ auto
-def test_auto_keeps_lscm_when_it_is_good():
+def test_auto_keeps_the_spectral_map_when_it_is_good():
     V, F = nearly_closed(1500)
-    lscm = parameterize(V, F, "lscm")
+    spectral = parameterize(V, F, "spectral")
     auto = parameterize(V, F, "auto")
-    assert auto.method == "lscm" and lscm.distortion["score"] <= ANGLE_DISTORTION_WARN
-    np.testing.assert_array_equal(auto.uv, lscm.uv)  # the same map, bit for bit
-    assert auto.reason.startswith("auto chose lscm") and auto.reason in auto.messages
-    assert set(auto.candidates) == {"lscm"}
+    assert auto.method == "spectral" and spectral.distortion["score"] <= ANGLE_DISTORTION_WARN
+    np.testing.assert_array_equal(auto.uv, spectral.uv)  # the same map, bit for bit
+    assert auto.reason.startswith("auto chose spectral") and auto.reason in auto.messages
+    assert set(auto.candidates) == {"spectral"}
 
 
-def test_auto_ranks_every_map_when_lscm_is_not_good(monkeypatch):
+def test_auto_ranks_every_map_when_the_spectral_map_is_not_good(monkeypatch):
     monkeypatch.setattr(parameterize_module, "ANGLE_DISTORTION_WARN", 1.0)  # nothing is good now
     V, F = lift(*random_delaunay(200, holes=1, seed=3))
     auto = parameterize(V, F, "auto")
-    assert set(auto.candidates) == {"lscm", "harmonic", "slim"}
+    assert set(auto.candidates) == {"spectral", "harmonic", "slim"}
     scores = {k: d["score"] for k, d in auto.candidates.items()
               if d["flipped_before_repair"] + d["degenerate_before_repair"] == 0}
     assert auto.method == min(scores, key=scores.get)
@@ -135,12 +135,12 @@ def test_auto_ranks_every_map_when_lscm_is_not_good(monkeypatch):
 
 
 @needs_data("halftunnel.off")
-def test_auto_passes_over_a_folded_lscm():
+def test_auto_passes_over_a_folded_spectral_map():
     m = data_mesh("halftunnel.off")
     auto = parameterize(m.V, m.F, "auto")
-    assert auto.candidates["lscm"]["flipped_before_repair"] > 0
+    assert auto.candidates["spectral"]["flipped_before_repair"] > 0
     assert auto.method == "slim" and auto.distortion["flipped_before_repair"] == 0
-    assert "1 folds repaired" in auto.reason and auto.warning is None
+    assert "2 folds repaired" in auto.reason and auto.warning is None
 
 
 # ------------------------------------------------------------------------ distortion

@@ -254,7 +254,7 @@ def test_a_badly_sheared_repair_gives_way_to_the_harmonic_map():
     from trispline.fit.datasets.analytic import analytic_mesh
 
     m = analytic_mesh("enneper", 800)
-    p = parameterize(m.V, m.F)
+    p = parameterize(m.V, m.F, "lscm")  # the spectral map does not fold it
     assert p.repaired == "harmonic" and p.distortion["flipped_before_repair"] == 1
     assert p.distortion["score"] < 1.2 and p.smoothing["moved_max"] > 0
     assert any("repaired with a harmonic map" in msg for msg in p.messages)
@@ -289,7 +289,7 @@ def test_a_badly_sheared_repair_gives_way_to_slim_when_harmonic_fails(monkeypatc
 
     monkeypatch.setattr(pp, "raw_map", no_harmonic)
     m = analytic_mesh("enneper", 800)
-    p = parameterize(m.V, m.F)
+    p = parameterize(m.V, m.F, "lscm")
     assert p.repaired == "slim" and p.distortion["flipped_before_repair"] == 1
     assert p.distortion["score"] < 2.0 and p.smoothing["moved_max"] > 0
 
@@ -323,7 +323,7 @@ def test_a_folded_lscm_map_is_replaced_by_a_global_map_without_the_outline_repai
     monkeypatch.setattr(pp, "repair_folds", no_repair)
     m = analytic_mesh("enneper", 800)
     seen: list[float] = []
-    p = parameterize(m.V, m.F, report=seen.append)
+    p = parameterize(m.V, m.F, "lscm", report=seen.append)
     assert p.repaired == "harmonic" and p.distortion["flipped_before_repair"] == 1
     assert len(seen) >= 4 and np.all(np.diff(seen) >= 0) and seen[-1] == 1.0
 
