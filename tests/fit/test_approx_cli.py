@@ -237,16 +237,16 @@ def test_a_tolerance_missed_at_sharp_creases_names_them(tmp_path, capsys):
 
 def test_a_nearly_singular_surface_is_weighed_away_or_named_with_the_way_out(tmp_path, capsys):
     """The built-in noisy scan at 1% of its diagonal, its outline's gap only reported: the data weight
-    cross-validated on the first domain (1e6) leaves an ear on the hole's outline nearly singular (measured:
-    smallest area element 0.033 of its largest, |H| 6.5e3 there). The weight is then chosen again among those
-    whose fit is regular (measured: 3e4, 0.137, |H| 175); a weight the user fixes is kept, and the command says
-    so and names it. (With the outline held to the tolerance, the default, the ear is refined away; over the
-    default spectral map no ear is left nearly singular: measured over the pinned LSCM map.)"""
+    cross-validated on the first domain (1e6) leaves an ear on the hole's outline nearly singular (measured
+    over the pinned LSCM map of 4,000 faces: smallest area element 0.033 of its largest, |H| 6.5e3 there; over
+    the spectral map of 3,000 faces with --data 1e6: 0.037). The weight is then chosen again among those whose
+    fit is regular (3e4: 0.32 here); a weight the user fixes is kept, and the command says so and names it.
+    (With the outline held to the tolerance, the default, the ear is refined away.)"""
     from trispline.fit.approx.pipeline import PINCHED
 
     for extra, warned in (((), False), (("--data", "1e6"), True)):
-        rc, stdout, err = run(capsys, "fit", "--example", "--example-faces", "4000", "-o", tmp_path / "s.npz",
-                              "--tolerance-rel", "1e-2", "--no-outline-tolerance", "--json", "--param", "lscm", *extra)
+        rc, stdout, err = run(capsys, "fit", "--example", "--example-faces", "3000", "-o", tmp_path / "s.npz",
+                              "--tolerance-rel", "1e-2", "--no-outline-tolerance", "--json", *extra)
         d = json.loads(stdout)
         assert rc == 0 and d["met"]
         assert ("nearly singular" in err) is warned and (d["regularity"] < PINCHED) is warned
