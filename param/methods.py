@@ -108,8 +108,12 @@ def _undefined(vm: ValidatedMesh, method: str, why: str) -> MeshError:
 #: energy: ``Q + shift B`` is positive definite (``Q`` is singular on the translations, which ``B`` weighs) with a
 #: margin above float64's rounding of ``Q`` even where thin triangles make that entry large.
 SPECTRAL_SHIFT = 1e-8
-#: Lanczos vectors of :func:`spectral_uv` (eigsh's ``ncv``): the map in ~13 solves at 100k faces.
-SPECTRAL_NCV = 6
+#: Lanczos vectors of :func:`spectral_uv` (eigsh's ``ncv``) and its tolerance (eigsh's ``tol``, relative to the
+#: eigenvalue): 11 solves at 100k faces, 26 on a noisy 1M-face scan (0.3 s each). A looser tolerance (1e-8: 11
+#: solves there) leaves the map depending on the start vector at the tolerance's level, which moved a sphere
+#: cap's fit at map coordinates by 2.5e-6 of its energy; at 1e-12 the map is the same to rounding.
+SPECTRAL_NCV = 10
+SPECTRAL_TOL = 1e-12
 
 
 def spectral_uv(vm: ValidatedMesh, *, backend: str | None = None) -> np.ndarray:
@@ -118,7 +122,7 @@ def spectral_uv(vm: ValidatedMesh, *, backend: str | None = None) -> np.ndarray:
     ``B`` the boundary vertices' lumped lengths (every loop): the lowest generalised eigenvector of
     ``Q x = lambda B x`` in that complement, by shift-invert Lanczos with one factorisation of ``Q + shift B``
     (:data:`SPECTRAL_SHIFT`) and the translations projected out of every solve (so a flat mesh, whose identity
-    map has zero energy like the translations, gets that map; 100k faces: 0.8 s, ~13 solves). Its eigenvalue is
+    map has zero energy like the translations, gets that map; 100k faces: ~1 s, 16 solves). Its eigenvalue is
     double (the map turned by 90 degrees); any vector of the pair is the map up to a rotation. No pins, so the
     map depends on the surface only: it is centred, turned onto its principal axes (the sign by the third
     moment) and scaled to the mesh's area."""
@@ -144,8 +148,8 @@ def spectral_uv(vm: ValidatedMesh, *, backend: str | None = None) -> np.ndarray:
     try:
         with spd_factor(Q + shift * diags(mass).tocsr(), backend=backend) as solve:
             op = LinearOperator(Q.shape, matvec=lambda x: project(solve(x)), dtype=np.float64)
-            values, vectors = eigsh(Q, k=1, M=diags(mass).tocsr(), sigma=-shift, OPinv=op, which="LM", tol=1e-12,
-                                    ncv=SPECTRAL_NCV, v0=start)
+            values, vectors = eigsh(Q, k=1, M=diags(mass).tocsr(), sigma=-shift, OPinv=op, which="LM",
+                                    tol=SPECTRAL_TOL, ncv=SPECTRAL_NCV, v0=start)
     except (np.linalg.LinAlgError, ArpackNoConvergence, ArpackError):  # faces of (nearly) no area
         raise _undefined(vm, "spectral", "its eigenproblem is singular") from None
     return _canonical(vectors[:, 0].reshape(2, nv).T, F, float(face_areas_3d(V, F).sum()))
