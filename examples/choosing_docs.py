@@ -3,7 +3,7 @@
     python examples/choosing_docs.py [OUT_DIR]      # default: docs/images
 
 * ``param_choice.png``  mean curvature of a rectangular scan with a hole (the ``bumps``
-  ground truth, 3,000 vertices, no noise) fitted with ``--param lscm`` and
+  ground truth, 3,000 vertices, no noise) fitted with the default ``--param spectral`` and
   ``--param harmonic``: harmonic maps the rectangle's outline onto a circle, and the
   squeezed corners show as curvature spikes;
 * ``weights_choice.png`` zebra stripes of a sparse scan of the same surface (150
@@ -59,7 +59,7 @@ def side_by_side(titled: dict, mode: str, path: Path) -> None:
 
 def param_picture(out: Path) -> None:
     truth = truth_scan("bumps", 3000, sigma=0.0)
-    fits = {m: fit_surface(truth.V, truth.F, param=m).surface for m in ("lscm", "harmonic")}
+    fits = {m: fit_surface(truth.V, truth.F, param=m).surface for m in ("spectral", "harmonic")}
     side_by_side({f"{m}: max curvature {max_curvature(s):.2g}, error {rms_to_truth(truth, s):.1e}": s
                   for m, s in fits.items()}, "curvature", out / "param_choice.png")
 
@@ -74,8 +74,8 @@ def weights_picture(out: Path) -> None:
 
 def approx_picture(out: Path) -> None:
     V, F = synthetic_scan(4000, seed=0)
-    # data weight 1e4: smoother than the cross-validated one (3e4 on this scan: max |H| 74 against 11, on an
-    # edge of the patch on the hole's outline)
+    # data weight 1e4: smoother than the cross-validated one (1e5 on this scan: max |H| 119 against 22, on the
+    # hole's outline)
     smooth = dataclasses.replace(APPROX_WEIGHTS, data=1e4)
     fits = {"interpolated": fit_surface(V, F).surface,
             "approximated": approximate_surface(V, F, tolerance_rel=1e-2, weights=smooth).surface}
