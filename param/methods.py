@@ -9,11 +9,11 @@ mirrors, checks, repairs and normalises them.
   :func:`~trispline.spline.util.spd.solve_spd` (PARDISO): the same map as ``igl.lscm`` to
   about 1e-10 relative, 14x faster at 1M faces (5 s instead of 76 s; its dense-ordered solve
   grows faster than the scan).
-* ``spectral``: the same conformal energy with a free boundary and no pins: the spectral conformal map of
-  Mullen et al. 2008 (:func:`spectral_uv`), which depends on the surface alone. ``lscm``'s two pins are found
-  from the outline loop's first vertex, which the file's face order picks, and its map depends on them beyond a
-  similarity (a sphere cap's fit moved by 7e-4 of its diagonal when its faces were shuffled); ``spectral``
-  gives the same map whatever the order (docs/param.md, "Known limitation: the face order").
+* ``spectral`` (the default): the same conformal energy with a free boundary and no pins: the spectral
+  conformal map of Mullen et al. 2008 (:func:`spectral_uv`), which depends on the surface alone. ``lscm``'s two
+  pins are found from the outline loop's lowest vertex id, and its map depends on them beyond a similarity, so a
+  renumbering can change it; ``spectral`` gives the same map however the file numbers and lists the mesh
+  (docs/param.md, "The face order and the numbering").
 * ``slim``: SLIM (Rabinovich et al. 2017) on the conformal (MIPS) energy ``s1/s2 + s2/s1``,
   started from the harmonic map where that is fold-free, else from the Tutte embedding (fold-free
   by Floater's theorem), holes filled: the energy is infinite on a fold, so every step stays
@@ -108,6 +108,10 @@ def _undefined(vm: ValidatedMesh, method: str, why: str) -> MeshError:
 #: energy: ``Q + shift B`` is positive definite (``Q`` is singular on the translations, which ``B`` weighs) with a
 #: margin above float64's rounding of ``Q`` even where thin triangles make that entry large.
 SPECTRAL_SHIFT = 1e-8
+#: Mass of every vertex in :func:`spectral_uv`'s ``B``, beside the boundary's lumped lengths (mean 1): with a mass
+#: of zero inside, ARPACK's Lanczos in the ``B`` inner product broke down on small meshes ("could not build an
+#: Arnoldi factorization": a vector of zero ``B``-norm); this one moves the map by ~1e-9 of its extent.
+SPECTRAL_INTERIOR_MASS = 1e-10
 #: Lanczos vectors of :func:`spectral_uv` (eigsh's ``ncv``) and its tolerance (eigsh's ``tol``, relative to the
 #: eigenvalue): 11 solves at 100k faces, 26 on a noisy 1M-face scan (0.3 s each). A looser tolerance (1e-8: 11
 #: solves there) leaves the map depending on the start vector at the tolerance's level, which moved a sphere
@@ -136,7 +140,7 @@ def spectral_uv(vm: ValidatedMesh, *, backend: str | None = None) -> np.ndarray:
     for loop in vm.boundary_loops:
         edge = np.linalg.norm(V[loop] - V[np.roll(loop, -1)], axis=1)
         mass[loop] += 0.5 * (edge + np.roll(edge, 1))
-    mass = np.concatenate([mass, mass]) / mass[mass > 0].mean()
+    mass = np.concatenate([mass, mass]) / mass[mass > 0].mean() + SPECTRAL_INTERIOR_MASS
     translations = np.zeros((2 * nv, 2))
     translations[:nv, 0] = translations[nv:, 1] = 1.0 / np.sqrt(mass[:nv].sum())  # B-orthonormal
 

@@ -102,15 +102,14 @@ def _tube(around: int = 60, along: int = 20) -> tuple[np.ndarray, np.ndarray]:
     return V, F
 
 
-@pytest.mark.parametrize("along, height", [(20, 1.0), (30, 0.5)])
-def test_an_open_tube_keeps_both_ends_open(along, height):
-    """The spectral map takes the first tube to an annulus and squeezes the second (which gives way to the
-    harmonic map); pinned LSCM overlapped the first and squeezed the second."""
+@pytest.mark.parametrize("along, height, used", [(20, 1.0, "spectral"), (30, 0.5, "harmonic")])
+def test_an_open_tube_keeps_both_ends_open(along, height, used):
+    """The spectral map takes the first tube to an annulus and folds the second, which gives way to the
+    harmonic map (pinned LSCM overlapped the first and squeezed the second)."""
     V, F = _tube(along=along)
     V[:, 2] *= height
     res = approximate_surface(V, F, tolerance_rel=1e-3)
-    assert (res.parameterization.method, res.parameterization.repaired) in (("spectral", None),
-                                                                            ("spectral", "harmonic"))
+    assert used in (res.parameterization.method, res.parameterization.repaired)
     assert len(res.domain.loops) == 2 and not any("spanned" in m for m in res.parameterization.messages)
     assert surface_reach(np.asarray(res.surface.ctrl), V, 0.1) < 0.05  # no cap over an end (it stood 0.2 out)
     assert res.stats["met"]
