@@ -113,7 +113,7 @@ SPECTRAL_SHIFT = 1e-8
 #: Arnoldi factorization": a vector of zero ``B``-norm); this one moves the map by ~1e-9 of its extent.
 SPECTRAL_INTERIOR_MASS = 1e-10
 #: Lanczos vectors of :func:`spectral_uv` (eigsh's ``ncv``) and its tolerance (eigsh's ``tol``, relative to the
-#: eigenvalue): 11 solves at 100k faces, 26 on a noisy 1M-face scan (0.3 s each). A looser tolerance (1e-8: 11
+#: eigenvalue): 16 solves at 100k faces, 26 on a noisy 1M-face scan (0.3 s each). A looser tolerance (1e-8: 11
 #: solves there) leaves the map depending on the start vector at the tolerance's level, which moved a sphere
 #: cap's fit at map coordinates by 2.5e-6 of its energy; at 1e-12 the map is the same to rounding.
 SPECTRAL_NCV = 10
@@ -136,11 +136,7 @@ def spectral_uv(vm: ValidatedMesh, *, backend: str | None = None) -> np.ndarray:
     V, F = vm.V, vm.F
     nv = V.shape[0]
     Q = _igl.lscm_hessian(V, F)
-    mass = np.zeros(nv)
-    for loop in vm.boundary_loops:
-        edge = np.linalg.norm(V[loop] - V[np.roll(loop, -1)], axis=1)
-        mass[loop] += 0.5 * (edge + np.roll(edge, 1))
-    mass = np.concatenate([mass, mass]) / mass[mass > 0].mean() + SPECTRAL_INTERIOR_MASS
+    mass = _boundary_mass(vm)
     translations = np.zeros((2 * nv, 2))
     translations[:nv, 0] = translations[nv:, 1] = 1.0 / np.sqrt(mass[:nv].sum())  # B-orthonormal
 
@@ -148,7 +144,7 @@ def spectral_uv(vm: ValidatedMesh, *, backend: str | None = None) -> np.ndarray:
         return y - translations @ (translations.T @ (mass * y))
 
     shift = SPECTRAL_SHIFT * float(np.abs(Q.diagonal()).max())
-    start = project(np.random.default_rng(0).standard_normal(2 * nv))
+    start = project(np.random.default_rng(0).standard_normal(2 * nv))  # generic, and the same every run
     try:
         with spd_factor(Q + shift * diags(mass).tocsr(), backend=backend) as solve:
             op = LinearOperator(Q.shape, matvec=lambda x: project(solve(x)), dtype=np.float64)
@@ -157,6 +153,17 @@ def spectral_uv(vm: ValidatedMesh, *, backend: str | None = None) -> np.ndarray:
     except (np.linalg.LinAlgError, ArpackNoConvergence, ArpackError):  # faces of (nearly) no area
         raise _undefined(vm, "spectral", "its eigenproblem is singular") from None
     return _canonical(vectors[:, 0].reshape(2, nv).T, F, float(face_areas_3d(V, F).sum()))
+
+
+def _boundary_mass(vm: ValidatedMesh) -> np.ndarray:
+    """``(2 nv,)`` the diagonal of :func:`spectral_uv`'s ``B`` for ``u`` then ``v``: each boundary vertex's
+    lumped length (half its two boundary edges, every loop) over their mean, plus :data:`SPECTRAL_INTERIOR_MASS`."""
+    V = vm.V
+    mass = np.zeros(V.shape[0])
+    for loop in vm.boundary_loops:
+        edge = np.linalg.norm(V[loop] - V[np.roll(loop, -1)], axis=1)
+        mass[loop] += 0.5 * (edge + np.roll(edge, 1))
+    return np.concatenate([mass, mass]) / mass[mass > 0].mean() + SPECTRAL_INTERIOR_MASS
 
 
 def _canonical(uv: np.ndarray, F: np.ndarray, area: float) -> np.ndarray:
